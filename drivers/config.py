@@ -1,0 +1,86 @@
+"""Configuration of the devices: robot, camera and the simulated world (validated, unknown keys rejected)."""
+
+from __future__ import annotations
+
+from ipaddress import IPv4Address
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+Vec3 = tuple[float, float, float]
+Joints7 = tuple[float, float, float, float, float, float, float]
+
+
+class StrictModel(BaseModel):
+    """Base of every config section: unknown keys are errors, values are immutable."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class RobotConfig(StrictModel):
+    kind: Literal["sim", "xarm7"] = "sim"
+    ip: IPv4Address | None = Field(default=None, description="xArm controller address (kind xarm7)")
+    home_q_rad: Joints7 | None = Field(default=None, description="ready posture; default: the description's")
+    control_rate_hz: float = Field(default=100.0, ge=10.0, le=250.0, description="servo streaming rate")
+    tracking_error_max_rad: float = Field(default=0.05, gt=0, description="abort if |q_cmd - q| exceeds this")
+
+    @model_validator(mode="after")
+    def _needs_ip(self) -> RobotConfig:
+        if self.kind == "xarm7" and self.ip is None:
+            raise ValueError("robot.kind 'xarm7' needs robot.ip (the controller's IPv4 address)")
+        return self
+
+
+class SimCameraConfig(StrictModel):
+    """Pose and noise of the simulated Femto Bolt (its ground-truth extrinsics)."""
+
+    position_m: Vec3 = (1.25, 0.0, 0.70)
+    look_at_m: Vec3 = (0.45, 0.0, 0.0)
+    horizontal_fov_deg: float = Field(default=80.0, gt=10.0, lt=150.0, description="Femto Bolt colour: 80 deg")
+    depth_noise_sigma_m: float = Field(default=0.0015, ge=0, description="noise std at 1 m; grows with range")
+    edge_invalid_jump_m: float = Field(default=0.04, gt=0, description="depth jump that marks a pixel invalid")
+
+
+class CameraConfig(StrictModel):
+    kind: Literal["sim", "femto_bolt"] = "sim"
+    width_px: int = Field(default=640, ge=64, le=3840, description="colour width; depth is aligned to it")
+    height_px: int = Field(default=360, ge=48, le=2160)
+    fps: int = Field(default=30, ge=5, le=30)
+    depth_mode: Literal["NFOV_UNBINNED", "NFOV_BINNED", "WFOV_BINNED", "WFOV_UNBINNED"] = "NFOV_UNBINNED"
+    min_depth_m: float = Field(default=0.5, gt=0, description="nearer depth is invalid (NFOV: 0.5 m)")
+    max_depth_m: float = Field(default=3.86, gt=0, description="farther depth is invalid (NFOV: 3.86 m)")
+    read_timeout_s: float = Field(default=1.0, gt=0)
+    max_frame_age_s: float = Field(default=0.2, gt=0, description="older frames are stale")
+    serial: str | None = Field(default=None, description="Femto Bolt serial; None = the only one attached")
+    sim: SimCameraConfig = SimCameraConfig()
+
+    @model_validator(mode="after")
+    def _range(self) -> CameraConfig:
+        if self.min_depth_m >= self.max_depth_m:
+            raise ValueError(f"min_depth_m {self.min_depth_m} must be below max_depth_m {self.max_depth_m}")
+        return self
+
+
+class SimFaultsConfig(StrictModel):
+    """Fault injection for tests and rehearsal; times are simulation seconds after connect."""
+
+    camera_drop_every_n: int = Field(default=0, ge=0, description="drop every n-th frame (0: never)")
+    camera_timeout_after_s: float | None = Field(default=None, ge=0, description="camera stops delivering")
+    arm_error_at_s: float | None = Field(default=None, ge=0)
+    arm_error_code: int = Field(default=31, description="controller error raised at arm_error_at_s")
+    servo_stall_at_s: float | None = Field(default=None, ge=0, description="one servo call blocks here")
+    servo_stall_s: float = Field(default=0.2, ge=0)
+
+
+class SimConfig(StrictModel):
+    scene: str = Field(default="tabletop", description="scene name: <scenes_dir>/<scene>.yaml")
+    scenes_dir: Path = Path("scenes")
+    seed: int = 0
+    physics_dt_s: float = Field(default=0.002, gt=0, le=0.01)
+    realtime: bool = Field(default=True, description="physics advances with the wall clock on its own thread")
+    faults: SimFaultsConfig = SimFaultsConfig()
+
+    @property
+    def scene_file(self) -> Path:
+        return self.scenes_dir / f"{self.scene}.yaml"

@@ -1,0 +1,224 @@
+"""Scene files (configs/scenes/*.yaml): the objects on the table, validated, placed by seed, written as MJCF.
+
+Object kinds: box, cylinder, sphere, plate, bottle (optionally lying on its side), pan, bowl, platform (a small
+scale), lidded_box (a box whose lid is hinged at the back). Static objects are welded to the table.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import yaml
+from pydantic import Field, ValidationError
+
+from drivers.config import StrictModel
+
+COLORS: dict[str, tuple[float, float, float]] = {
+    "red": (0.85, 0.12, 0.10), "green": (0.15, 0.65, 0.20), "blue": (0.12, 0.30, 0.85),
+    "yellow": (0.95, 0.82, 0.10), "orange": (0.95, 0.50, 0.10), "purple": (0.55, 0.20, 0.70),
+    "white": (0.92, 0.92, 0.90), "black": (0.08, 0.08, 0.08), "gray": (0.45, 0.45, 0.47),
+    "brown": (0.50, 0.32, 0.18), "pink": (0.95, 0.55, 0.70), "cyan": (0.10, 0.75, 0.80),
+}
+OBJECT_CONTACT = {"contype": "1", "conaffinity": "3"}
+OBJECT_FRICTION = "1.0 0.01 0.001"
+
+
+class SceneError(ValueError):
+    pass
+
+
+class SceneObject(StrictModel):
+    name: str = Field(pattern=r"^[a-z][a-z0-9_]*$")
+    kind: Literal["box", "cylinder", "sphere", "plate", "bottle", "pan", "bowl", "platform", "lidded_box"]
+    color: str = "red"
+    texture: Literal["none", "checker", "stripes"] = "none"
+    size_m: tuple[float, float, float] | None = Field(default=None, description="box, platform, lidded_box")
+    radius_m: float | None = Field(default=None, gt=0, description="cylinder, sphere, plate, bottle, pan, bowl")
+    height_m: float | None = Field(default=None, gt=0, description="cylinder, bottle, pan, bowl, plate")
+    mass_kg: float = Field(default=0.15, gt=0)
+    xy_m: tuple[float, float]
+    yaw_deg: float = 0.0
+    lying: bool = Field(default=False, description="bottle/cylinder on its side")
+    lid_open_deg: float = Field(default=100.0, ge=0, le=110, description="lidded_box initial lid angle")
+    fixed: bool | None = Field(default=None, description="welded to the table; default per kind")
+    jitter: bool = Field(default=True, description="apply the scene's placement randomisation")
+
+    def is_fixed(self) -> bool:
+        if self.fixed is not None:
+            return self.fixed
+        return self.kind in ("pan", "bowl", "platform", "lidded_box")
+
+    def footprint_radius(self) -> float:
+        """Radius of a vertical cylinder around the object, for non-overlap checks."""
+        if self.size_m is not None:
+            return 0.5 * math.hypot(self.size_m[0], self.size_m[1])
+        r = self.radius_m or 0.03
+        if self.lying:
+            return max(r, 0.5 * (self.height_m or 0.1))
+        return r + (0.05 if self.kind == "pan" else 0.0)
+
+
+class Randomisation(StrictModel):
+    xy_jitter_m: float = Field(default=0.02, ge=0)
+    yaw_jitter_deg: float = Field(default=15.0, ge=0)
+    min_gap_m: float = Field(default=0.02, ge=0, description="free space kept between footprints")
+    max_tries: int = Field(default=200, ge=1)
+
+
+class Scene(StrictModel):
+    name: str
+    description: str = ""
+    objects: tuple[SceneObject, ...]
+    randomise: Randomisation = Randomisation()
+
+
+def load_scene(path: Path) -> Scene:
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except OSError as e:
+        raise SceneError(f"{path}: cannot read scene ({e.strerror})") from None
+    except yaml.YAMLError as e:
+        raise SceneError(f"{path}: invalid YAML ({e})") from None
+    try:
+        scene = Scene.model_validate(data)
+    except ValidationError as e:
+        lines = [f"{path}: {'.'.join(str(p) for p in err['loc'])}: {err['msg']}" for err in e.errors()]
+        raise SceneError("invalid scene:\n  " + "\n  ".join(lines)) from None
+    names = [o.name for o in scene.objects]
+    if len(set(names)) != len(names):
+        raise SceneError(f"{path}: object names must be unique, got {names}")
+    for o in scene.objects:
+        if o.color not in COLORS:
+            raise SceneError(f"{path}: object {o.name}: unknown color {o.color!r} (known: {', '.join(COLORS)})")
+        needs = {"box": "size_m", "platform": "size_m", "lidded_box": "size_m", "cylinder": "radius_m",
+                 "sphere": "radius_m", "plate": "radius_m", "bottle": "radius_m", "pan": "radius_m",
+                 "bowl": "radius_m"}[o.kind]
+        if getattr(o, needs) is None:
+            raise SceneError(f"{path}: object {o.name} of kind {o.kind} needs {needs}")
+    return scene
+
+
+def place(scene: Scene, seed: int) -> dict[str, tuple[float, float, float]]:
+    """Seeded placement: (x, y, yaw) per object, jittered around its nominal pose without overlaps."""
+    rng = np.random.default_rng(seed)
+    r = scene.randomise
+    for _ in range(r.max_tries):
+        poses: dict[str, tuple[float, float, float]] = {}
+        for o in scene.objects:
+            dx, dy = rng.uniform(-r.xy_jitter_m, r.xy_jitter_m, 2) if o.jitter else (0.0, 0.0)
+            dyaw = rng.uniform(-r.yaw_jitter_deg, r.yaw_jitter_deg) if o.jitter else 0.0
+            poses[o.name] = (o.xy_m[0] + dx, o.xy_m[1] + dy, math.radians(o.yaw_deg + dyaw))
+        if _no_overlap(scene, poses, r.min_gap_m):
+            return poses
+    raise SceneError(
+        f"scene {scene.name}: no overlap-free placement in {r.max_tries} tries with seed {seed}; "
+        "reduce xy_jitter_m or move objects apart"
+    )
+
+
+def _no_overlap(scene: Scene, poses: dict[str, tuple[float, float, float]], gap: float) -> bool:
+    objs = scene.objects
+    for i, a in enumerate(objs):
+        for b in objs[i + 1 :]:
+            d = math.dist(poses[a.name][:2], poses[b.name][:2])
+            if d < a.footprint_radius() + b.footprint_radius() + gap:
+                return False
+    return True
+
+
+def _f(values) -> str:
+    return " ".join(f"{float(v):.6g}" for v in np.atleast_1d(values))
+
+
+def _material(asset: ET.Element, o: SceneObject) -> str:
+    rgb = COLORS[o.color]
+    name = f"mat_{o.name}"
+    if o.texture == "none":
+        ET.SubElement(asset, "material", name=name, rgba=_f((*rgb, 1.0)), specular="0.2")
+    else:
+        dark = tuple(0.6 * c for c in rgb)
+        builtin = "checker" if o.texture == "checker" else "gradient"
+        ET.SubElement(asset, "texture", name=f"tex_{o.name}", type="cube", builtin=builtin, rgb1=_f(rgb),
+                      rgb2=_f(dark), width="64", height="64")
+        ET.SubElement(asset, "material", name=name, texture=f"tex_{o.name}", specular="0.2")
+    return name
+
+
+def _geom(body: ET.Element, o: SceneObject, index: int, material: str, **attrs: str) -> None:
+    ET.SubElement(body, "geom", name=f"{o.name}_g{index}", material=material, friction=OBJECT_FRICTION,
+                  **OBJECT_CONTACT, **attrs)
+
+
+def _ring(body: ET.Element, o: SceneObject, material: str, radius: float, height: float, wall: float,
+          z0: float, first_index: int, n: int = 20) -> None:
+    """A circular wall of n boxes (pan and bowl sides)."""
+    seg = 2 * radius * math.tan(math.pi / n) + 0.002
+    for k in range(n):
+        a = 2 * math.pi * k / n
+        _geom(body, o, first_index + k, material, type="box", size=_f((wall / 2, seg / 2, height / 2)),
+              pos=_f((radius * math.cos(a), radius * math.sin(a), z0 + height / 2)),
+              euler=_f((0, 0, a)))
+
+
+def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: tuple[float, float, float]) -> None:
+    """Append one object body (free-floating unless fixed) at pose (x, y, yaw) on the table top (z = 0)."""
+    x, y, yaw = pose
+    mat = _material(asset, o)
+    body = ET.SubElement(worldbody, "body", name=o.name, pos=_f((x, y, 0.0)), euler=_f((0, 0, yaw)))
+    if not o.is_fixed():
+        ET.SubElement(body, "freejoint", name=f"{o.name}_free")
+    mass = _f(o.mass_kg)
+    if o.kind in ("box", "platform"):
+        sx, sy, sz = o.size_m
+        if o.kind == "platform":  # base and a lighter top plate, like a kitchen scale
+            _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, sz * 0.4)), pos=_f((0, 0, sz * 0.4)),
+                  mass=mass)
+            ET.SubElement(asset, "material", name=f"mat_{o.name}_top", rgba="0.85 0.85 0.85 1")
+            _geom(body, o, 1, f"mat_{o.name}_top", type="box", size=_f((sx * 0.45, sy * 0.45, sz * 0.1)),
+                  pos=_f((0, 0, sz * 0.9)), mass=_f(o.mass_kg * 0.2))
+        else:
+            _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, sz / 2)), pos=_f((0, 0, sz / 2)),
+                  mass=mass)
+    elif o.kind == "sphere":
+        _geom(body, o, 0, mat, type="sphere", size=_f(o.radius_m), pos=_f((0, 0, o.radius_m)), mass=mass)
+    elif o.kind in ("cylinder", "plate", "bottle"):
+        r = o.radius_m
+        h = o.height_m or {"cylinder": 0.1, "plate": 0.015, "bottle": 0.22}[o.kind]
+        if o.lying:
+            pos, euler = (0, 0, r), (0, math.pi / 2, 0)
+        else:
+            pos, euler = (0, 0, h / 2), (0, 0, 0)
+        if o.kind == "bottle":  # body, neck and cap along the bottle axis (local z before tilting)
+            inner = ET.SubElement(body, "body", name=f"{o.name}_shape", pos=_f(pos), euler=_f(euler))
+            body_h = h * 0.7
+            _geom(inner, o, 0, mat, type="cylinder", size=_f((r, body_h / 2)), pos=_f((0, 0, -h / 2 + body_h / 2)),
+                  mass=_f(o.mass_kg * 0.85))
+            _geom(inner, o, 1, mat, type="cylinder", size=_f((r * 0.45, h * 0.15)),
+                  pos=_f((0, 0, -h / 2 + body_h + h * 0.15)), mass=_f(o.mass_kg * 0.15))
+        else:
+            _geom(body, o, 0, mat, type="cylinder", size=_f((r, h / 2)), pos=_f(pos), euler=_f(euler), mass=mass)
+    elif o.kind in ("pan", "bowl"):
+        r = o.radius_m
+        h = o.height_m or (0.04 if o.kind == "pan" else 0.07)
+        _geom(body, o, 0, mat, type="cylinder", size=_f((r, 0.004)), pos="0 0 0.004", mass=mass)
+        _ring(body, o, mat, r, h, 0.008, 0.008, first_index=1)
+        if o.kind == "pan":
+            _geom(body, o, 30, mat, type="box", size="0.07 0.012 0.008", pos=_f((r + 0.07, 0, h * 0.8)))
+    elif o.kind == "lidded_box":
+        sx, sy, sz = o.size_m
+        w = 0.008
+        _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, w / 2)), pos=_f((0, 0, w / 2)), mass=mass)
+        for k, (px, py, hx, hy) in enumerate(((sx / 2 - w / 2, 0, w / 2, sy / 2), (-sx / 2 + w / 2, 0, w / 2, sy / 2),
+                                              (0, sy / 2 - w / 2, sx / 2, w / 2), (0, -sy / 2 + w / 2, sx / 2, w / 2))):
+            _geom(body, o, 1 + k, mat, type="box", size=_f((hx, hy, sz / 2)), pos=_f((px, py, sz / 2)))
+        # lid hinged along the back (-x) top edge; angle 0 = closed, positive opens upward
+        lid = ET.SubElement(body, "body", name=f"{o.name}_lid", pos=_f((-sx / 2, 0, sz)))
+        ET.SubElement(lid, "joint", name=f"{o.name}_hinge", type="hinge", axis="0 -1 0", range="0 1.92",
+                      damping="0.05", ref="0")
+        ET.SubElement(asset, "material", name=f"mat_{o.name}_lid", rgba=_f((*[0.8 * c for c in COLORS[o.color]], 1)))
+        _geom(lid, o, 10, f"mat_{o.name}_lid", type="box", size=_f((sx / 2, sy / 2 + 0.004, w / 2)),
+              pos=_f((sx / 2, 0, w / 2)), mass=_f(0.05))

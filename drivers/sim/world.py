@@ -1,0 +1,201 @@
+"""The simulated world: table, xArm 7 + gripper, a Femto Bolt-like camera and the scene's objects in MuJoCo.
+
+The world frame is the robot base frame (z = 0 on the table top). Physics either follows the wall clock on
+its own thread (`realtime`, like hardware: time passes whether or not anyone commands) or advances only when
+`step()` is called (deterministic tests). All access to the MuJoCo data goes through `lock`.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+import xml.etree.ElementTree as ET
+from collections.abc import Callable
+
+import numpy as np
+
+from drivers.config import CameraConfig, SimConfig
+from drivers.description import RobotSpec, load_robot_spec
+from drivers.description.mjcf import add_robot
+from drivers.sim.gl import mujoco
+from drivers.sim.scene import Scene, add_object, load_scene, place
+
+TABLE_SIZE_M = (1.4, 1.6, 0.04)
+TABLE_CENTER_XY_M = (0.3, 0.0)
+CAMERA_NAME = "femto_bolt"
+MAX_RENDER_SIZE = (1920, 1080)
+
+
+def look_at(position: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """T_world_camera for an optical frame (x right, y down, z forward) at `position` looking at `target`."""
+    z = np.asarray(target, float) - np.asarray(position, float)
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    if np.linalg.norm(x) < 1e-6:
+        raise ValueError("camera looks straight down or up: choose a look_at point off the vertical")
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    T[:3, 3] = position
+    return T
+
+
+def camera_fovy_deg(camera: CameraConfig) -> float:
+    """Vertical field of view for square pixels given the configured horizontal one."""
+    fx = (camera.width_px / 2) / math.tan(math.radians(camera.sim.horizontal_fov_deg) / 2)
+    return math.degrees(2 * math.atan((camera.height_px / 2) / fx))
+
+
+def build_mjcf(spec: RobotSpec, scene: Scene, poses: dict, camera: CameraConfig, dt: float) -> str:
+    root = ET.Element("mujoco", model=f"goalvla_{scene.name}")
+    ET.SubElement(root, "compiler", angle="radian", autolimits="true")
+    ET.SubElement(root, "option", timestep=f"{dt:g}", integrator="implicitfast", cone="elliptic",
+                  impratio="10")
+    visual = ET.SubElement(root, "visual")
+    ET.SubElement(visual, "global", offwidth=str(MAX_RENDER_SIZE[0]), offheight=str(MAX_RENDER_SIZE[1]))
+    ET.SubElement(visual, "quality", shadowsize="2048")
+    ET.SubElement(visual, "headlight", ambient="0.35 0.35 0.35", diffuse="0.4 0.4 0.4", specular="0 0 0")
+    asset = ET.SubElement(root, "asset")
+    ET.SubElement(asset, "texture", name="tex_table", type="2d", builtin="checker", rgb1="0.62 0.48 0.34",
+                  rgb2="0.58 0.44 0.31", width="256", height="256", mark="edge", markrgb="0.55 0.42 0.3")
+    ET.SubElement(asset, "material", name="mat_table", texture="tex_table", texrepeat="8 8", specular="0.1")
+    ET.SubElement(asset, "texture", name="tex_floor", type="2d", builtin="flat", rgb1="0.3 0.3 0.32",
+                  width="16", height="16")
+    ET.SubElement(asset, "material", name="mat_floor", texture="tex_floor")
+    world = ET.SubElement(root, "worldbody")
+    ET.SubElement(world, "light", pos="0.4 0.3 2.2", dir="0 0 -1", diffuse="0.6 0.6 0.6", castshadow="true")
+    ET.SubElement(world, "light", pos="1.5 -1.0 1.8", dir="-0.6 0.4 -0.7", diffuse="0.3 0.3 0.3",
+                  castshadow="false")
+    ET.SubElement(world, "geom", name="floor", type="plane", size="3 3 0.1", pos="0 0 -0.75",
+                  material="mat_floor", contype="1", conaffinity="3")
+    sx, sy, sz = TABLE_SIZE_M
+    ET.SubElement(world, "geom", name="table", type="box", size=f"{sx / 2} {sy / 2} {sz / 2}",
+                  pos=f"{TABLE_CENTER_XY_M[0]} {TABLE_CENTER_XY_M[1]} {-sz / 2}", material="mat_table",
+                  contype="1", conaffinity="3", friction="0.8 0.01 0.001")
+    T = look_at(np.array(camera.sim.position_m), np.array(camera.sim.look_at_m))
+    x_mj, y_mj = T[:3, 0], -T[:3, 1]  # MuJoCo cameras look along -z with y up
+    ET.SubElement(world, "camera", name=CAMERA_NAME, pos=" ".join(f"{v:.6g}" for v in T[:3, 3]),
+                  xyaxes=" ".join(f"{v:.9g}" for v in (*x_mj, *y_mj)), fovy=f"{camera_fovy_deg(camera):.9g}")
+    actuators = ET.Element("actuator")
+    add_robot(world, actuators, spec)
+    for o in scene.objects:
+        add_object(world, asset, o, poses[o.name])
+    root.append(actuators)
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode")
+
+
+class SimWorld:
+    """Owns the MuJoCo model and data, the physics clock and the fault schedule shared by the sim devices."""
+
+    def __init__(self, sim: SimConfig, camera: CameraConfig, spec: RobotSpec | None = None,
+                 home_q: np.ndarray | None = None) -> None:
+        self.config = sim
+        self.camera_config = camera
+        self.spec = spec or load_robot_spec()
+        self.scene = load_scene(sim.scene_file)
+        self.poses = place(self.scene, sim.seed)
+        self.xml = build_mjcf(self.spec, self.scene, self.poses, camera, sim.physics_dt_s)
+        self.model = mujoco.MjModel.from_xml_string(self.xml)
+        self.data = mujoco.MjData(self.model)
+        self.lock = threading.RLock()
+        self.T_world_camera = look_at(np.array(camera.sim.position_m), np.array(camera.sim.look_at_m))
+        m = self.model
+        self.arm_qpos = np.array([m.jnt_qposadr[m.joint(n).id] for n in self.spec.joint_names])
+        self.arm_dof = np.array([m.jnt_dofadr[m.joint(n).id] for n in self.spec.joint_names])
+        self.arm_act = np.array([m.actuator(f"servo_{n}").id for n in self.spec.joint_names])
+        self.arm_vel_act = np.array([m.actuator(f"velocity_{n}").id for n in self.spec.joint_names])
+        fingers = self.spec.gripper.finger_joints
+        self.finger_qpos = np.array([m.jnt_qposadr[m.joint(n).id] for n in fingers])
+        self.finger_act = np.array([m.actuator(f"servo_{n}").id for n in fingers])
+        self._post_step: list[Callable[[], None]] = []
+        self._thread: threading.Thread | None = None
+        self._running = threading.Event()
+        self.reset(np.asarray(home_q if home_q is not None else self.spec.home_q, dtype=float))
+
+    # -- state --------------------------------------------------------------------------------------------
+    def reset(self, q: np.ndarray) -> None:
+        """Put the arm at q (holding it there), fingers open, objects at their seeded poses, then settle."""
+        with self.lock:
+            mujoco.mj_resetData(self.model, self.data)
+            self.data.qpos[self.arm_qpos] = q
+            self.data.ctrl[self.arm_act] = q
+            open_half = self.spec.gripper.max_width_m / 2
+            self.data.qpos[self.finger_qpos] = open_half
+            self.data.ctrl[self.finger_act] = open_half
+            for o in self.scene.objects:
+                if o.kind == "lidded_box":
+                    hinge = self.model.joint(f"{o.name}_hinge")
+                    self.data.qpos[hinge.qposadr[0]] = math.radians(o.lid_open_deg)
+            mujoco.mj_forward(self.model, self.data)
+            for _ in range(int(0.3 / self.model.opt.timestep)):  # let objects settle on the table
+                mujoco.mj_step(self.model, self.data)
+            self.data.time = 0.0
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def add_post_step_hook(self, hook: Callable[[], None]) -> None:
+        """Called (under the lock) after every physics step: devices use it for scheduled faults."""
+        self._post_step.append(hook)
+
+    def object_pose(self, name: str) -> np.ndarray:
+        """Ground-truth T_base_object of a scene object (its body frame)."""
+        with self.lock:
+            body = self.data.body(name)
+            T = np.eye(4)
+            T[:3, :3] = body.xmat.reshape(3, 3)
+            T[:3, 3] = body.xpos
+            return T
+
+    def tcp_pose(self) -> np.ndarray:
+        with self.lock:
+            site = self.data.site("tcp")
+            T = np.eye(4)
+            T[:3, :3] = site.xmat.reshape(3, 3)
+            T[:3, 3] = site.xpos
+            return T
+
+    # -- time ---------------------------------------------------------------------------------------------
+    def _step_once(self) -> None:
+        mujoco.mj_step(self.model, self.data)
+        for hook in self._post_step:
+            hook()
+
+    def step(self, seconds: float) -> None:
+        """Advance physics by `seconds` (only when not running in real time)."""
+        if self._thread is not None:
+            raise RuntimeError("SimWorld.step() is for non-realtime worlds; this one runs on its own clock")
+        with self.lock:
+            for _ in range(max(1, round(seconds / self.model.opt.timestep))):
+                self._step_once()
+
+    def start(self) -> None:
+        """Run physics against the wall clock on a background thread (idempotent)."""
+        if self._thread is not None:
+            return
+        self._running.set()
+        self._thread = threading.Thread(target=self._run, name="sim-physics", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._running.clear()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+            self._thread = None
+
+    def _run(self) -> None:
+        dt = self.model.opt.timestep
+        t0_wall, t0_sim = time.perf_counter(), self.data.time
+        while self._running.is_set():
+            target = t0_sim + (time.perf_counter() - t0_wall)
+            with self.lock:
+                behind = int((target - self.data.time) / dt)
+                if behind > 200:  # more than 0.4 s behind (machine stalled): drop time rather than spiral
+                    t0_wall, t0_sim = time.perf_counter(), self.data.time
+                    behind = 1
+                for _ in range(behind):
+                    self._step_once()
+            time.sleep(dt / 2)

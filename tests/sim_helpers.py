@@ -1,0 +1,52 @@
+"""Helpers for simulation tests: a small damped-least-squares IK on the MuJoCo model, and streaming."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.sim.gl import mujoco
+from drivers.sim.world import SimWorld
+
+
+def top_down_grasp_pose(T_base_object: np.ndarray, height_m: float) -> np.ndarray:
+    """TCP pose pointing down at the object's origin + height, fingers closing along the object's y axis."""
+    y = T_base_object[:3, 1].copy()
+    y[2] = 0.0
+    y /= np.linalg.norm(y)
+    z = np.array([0.0, 0.0, -1.0])
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([np.cross(y, z), y, z])
+    T[:3, 3] = T_base_object[:3, 3] + [0.0, 0.0, height_m]
+    return T
+
+
+def ik(world: SimWorld, T_target: np.ndarray, q0: np.ndarray, iters: int = 300) -> np.ndarray:
+    """DLS IK for the tcp site on a scratch copy of the world's data (test helper, not the safety IK)."""
+    m = world.model
+    d = mujoco.MjData(m)
+    q = q0.astype(float).copy()
+    site = m.site("tcp").id
+    jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    for _ in range(iters):
+        d.qpos[world.arm_qpos] = q
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        R = d.site_xmat[site].reshape(3, 3)
+        e_p = T_target[:3, 3] - d.site_xpos[site]
+        e_r = 0.5 * sum(np.cross(R[:, i], T_target[:3, i]) for i in range(3))
+        err = np.concatenate([e_p, e_r])
+        if np.linalg.norm(err) < 1e-6:
+            return q
+        mujoco.mj_jacSite(m, d, jp, jr, site)
+        J = np.vstack([jp, jr])[:, world.arm_dof]
+        q += J.T @ np.linalg.solve(J @ J.T + 1e-4 * np.eye(6), err)
+        q = np.clip(q, world.spec.lower, world.spec.upper)
+    raise AssertionError(f"test IK did not converge: residual {np.linalg.norm(err):.2e}")
+
+
+def joint_path(q_from: np.ndarray, q_to: np.ndarray, duration_s: float, rate_hz: float) -> np.ndarray:
+    """Smooth (minimum-jerk) joint path sampled at rate_hz, excluding the start."""
+    n = max(2, round(duration_s * rate_hz))
+    s = np.linspace(0, 1, n + 1)[1:]
+    blend = 10 * s**3 - 15 * s**4 + 6 * s**5
+    return q_from + blend[:, None] * (q_to - q_from)
