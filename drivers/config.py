@@ -35,8 +35,8 @@ class RobotConfig(StrictModel):
 class SimCameraConfig(StrictModel):
     """Pose and noise of the simulated Femto Bolt (its ground-truth extrinsics)."""
 
-    position_m: Vec3 = (1.25, 0.0, 0.70)
-    look_at_m: Vec3 = (0.45, 0.0, 0.0)
+    position_m: Vec3 = (1.10, 0.0, 0.80)
+    look_at_m: Vec3 = (0.40, 0.0, 0.05)
     horizontal_fov_deg: float = Field(default=80.0, gt=10.0, lt=150.0, description="Femto Bolt colour: 80 deg")
     depth_noise_sigma_m: float = Field(default=0.0015, ge=0, description="noise std at 1 m; grows with range")
     edge_invalid_jump_m: float = Field(default=0.04, gt=0, description="depth jump that marks a pixel invalid")

@@ -74,9 +74,7 @@ class CameraIntrinsics:
     def cropped(self, u0: int, v0: int, width: int, height: int) -> CameraIntrinsics:
         """Intrinsics of the crop whose top-left pixel is (u0, v0) in this image."""
         if u0 < 0 or v0 < 0 or u0 + width > self.width or v0 + height > self.height:
-            raise ValueError(
-                f"crop ({u0}, {v0}, {width}x{height}) lies outside the {self.width}x{self.height} image"
-            )
+            raise ValueError(f"crop ({u0}, {v0}, {width}x{height}) lies outside the {self.width}x{self.height} image")
         return CameraIntrinsics(width, height, self.fx, self.fy, self.cx - u0, self.cy - v0)
 
 

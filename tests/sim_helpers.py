@@ -1,4 +1,4 @@
-"""Helpers for simulation tests: a small damped-least-squares IK on the MuJoCo model, and streaming."""
+"""Helpers for simulation tests: a small damped-least-squares IK on the MuJoCo model."""
 
 from __future__ import annotations
 
@@ -42,11 +42,3 @@ def ik(world: SimWorld, T_target: np.ndarray, q0: np.ndarray, iters: int = 300) 
         q += J.T @ np.linalg.solve(J @ J.T + 1e-4 * np.eye(6), err)
         q = np.clip(q, world.spec.lower, world.spec.upper)
     raise AssertionError(f"test IK did not converge: residual {np.linalg.norm(err):.2e}")
-
-
-def joint_path(q_from: np.ndarray, q_to: np.ndarray, duration_s: float, rate_hz: float) -> np.ndarray:
-    """Smooth (minimum-jerk) joint path sampled at rate_hz, excluding the start."""
-    n = max(2, round(duration_s * rate_hz))
-    s = np.linspace(0, 1, n + 1)[1:]
-    blend = 10 * s**3 - 15 * s**4 + 6 * s**5
-    return q_from + blend[:, None] * (q_to - q_from)

@@ -95,8 +95,11 @@ class SimArm(Arm):
             outside = (q < self._lower) | (q > self._upper)
             if np.any(outside):
                 j = int(np.flatnonzero(outside)[0])
-                raise self._trip(23, f"{self.joint_names[j]} set-point {q[j]:.4f} rad outside "
-                                     f"[{self._lower[j]:.4f}, {self._upper[j]:.4f}]")
+                raise self._trip(
+                    23,
+                    f"{self.joint_names[j]} set-point {q[j]:.4f} rad outside "
+                    f"[{self._lower[j]:.4f}, {self._upper[j]:.4f}]",
+                )
             elapsed = max(w.time - self._last_cmd_time, self._period)
             speed = np.abs(q - self._last_cmd) / elapsed
             if np.any(speed > CONTROLLER_MAX_JOINT_SPEED * SPEED_TOLERANCE):
@@ -131,15 +134,18 @@ class SimArm(Arm):
         if w.time - self._last_cmd_time > 2 * self._period:
             w.data.ctrl[w.arm_vel_act] = 0.0
         faults = w.config.faults
-        if (self._connected and not self._error_fired and faults.arm_error_at_s is not None
-                and self.world.time >= faults.arm_error_at_s):
+        if (
+            self._connected
+            and not self._error_fired
+            and faults.arm_error_at_s is not None
+            and self.world.time >= faults.arm_error_at_s
+        ):
             self._error_fired = True
             self._trip(faults.arm_error_code, "injected fault")
 
     def _maybe_stall(self) -> None:
         faults = self.world.config.faults
-        if (not self._stall_fired and faults.servo_stall_at_s is not None
-                and self.world.time >= faults.servo_stall_at_s):
+        if not self._stall_fired and faults.servo_stall_at_s is not None and self.world.time >= faults.servo_stall_at_s:
             self._stall_fired = True
             time.sleep(faults.servo_stall_s)  # like a servo call blocking in the real SDK
 

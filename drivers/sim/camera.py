@@ -129,11 +129,25 @@ class SimCamera(Camera):
             self._frame_id += 1
             return RGBDFrame(rgb, self._sensor_depth(depth), self._intrinsics, stamp, self._frame_id)
 
+    def object_masks(self) -> dict[str, np.ndarray]:
+        """Ground-truth visibility masks (H, W bool) of every scene object in the last frame read."""
+        if self._renderer is None:
+            raise NotConnectedError("SimCamera.object_masks() before connect()")
+        m = self.world.model
+        with self._render_lock:
+            r = self._renderer
+            r.enable_segmentation_rendering()
+            r.update_scene(self._render_data, CAMERA_NAME)
+            seg = r.render()
+            r.disable_segmentation_rendering()
+        geom_ids = np.where(seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM), seg[..., 0], -1)
+        root_of_geom = np.append(m.body_rootid[m.geom_bodyid], -1)  # index -1 -> -1 (no geom)
+        roots = root_of_geom[geom_ids]
+        return {o.name: roots == m.body(o.name).id for o in self.world.scene.objects}
+
     def _sensor_depth(self, depth: np.ndarray) -> np.ndarray:
         c = self.config
-        noisy = depth + self._rng.normal(0.0, 1.0, depth.shape).astype(np.float32) * (
-            c.sim.depth_noise_sigma_m * depth
-        )
+        noisy = depth + self._rng.normal(0.0, 1.0, depth.shape).astype(np.float32) * (c.sim.depth_noise_sigma_m * depth)
         noisy = invalidate_depth_edges(noisy, c.sim.edge_invalid_jump_m)
         noisy[(depth < c.min_depth_m) | (depth > c.max_depth_m)] = np.nan
         return noisy.astype(np.float32)

@@ -18,10 +18,18 @@ from pydantic import Field, ValidationError
 from drivers.config import StrictModel
 
 COLORS: dict[str, tuple[float, float, float]] = {
-    "red": (0.85, 0.12, 0.10), "green": (0.15, 0.65, 0.20), "blue": (0.12, 0.30, 0.85),
-    "yellow": (0.95, 0.82, 0.10), "orange": (0.95, 0.50, 0.10), "purple": (0.55, 0.20, 0.70),
-    "white": (0.92, 0.92, 0.90), "black": (0.08, 0.08, 0.08), "gray": (0.45, 0.45, 0.47),
-    "brown": (0.50, 0.32, 0.18), "pink": (0.95, 0.55, 0.70), "cyan": (0.10, 0.75, 0.80),
+    "red": (0.85, 0.12, 0.10),
+    "green": (0.15, 0.65, 0.20),
+    "blue": (0.12, 0.30, 0.85),
+    "yellow": (0.95, 0.82, 0.10),
+    "orange": (0.95, 0.50, 0.10),
+    "purple": (0.55, 0.20, 0.70),
+    "white": (0.92, 0.92, 0.90),
+    "black": (0.08, 0.08, 0.08),
+    "gray": (0.45, 0.45, 0.47),
+    "brown": (0.50, 0.32, 0.18),
+    "pink": (0.95, 0.55, 0.70),
+    "cyan": (0.10, 0.75, 0.80),
 }
 OBJECT_CONTACT = {"contype": "1", "conaffinity": "3"}
 OBJECT_FRICTION = "1.0 0.01 0.001"
@@ -94,9 +102,17 @@ def load_scene(path: Path) -> Scene:
     for o in scene.objects:
         if o.color not in COLORS:
             raise SceneError(f"{path}: object {o.name}: unknown color {o.color!r} (known: {', '.join(COLORS)})")
-        needs = {"box": "size_m", "platform": "size_m", "lidded_box": "size_m", "cylinder": "radius_m",
-                 "sphere": "radius_m", "plate": "radius_m", "bottle": "radius_m", "pan": "radius_m",
-                 "bowl": "radius_m"}[o.kind]
+        needs = {
+            "box": "size_m",
+            "platform": "size_m",
+            "lidded_box": "size_m",
+            "cylinder": "radius_m",
+            "sphere": "radius_m",
+            "plate": "radius_m",
+            "bottle": "radius_m",
+            "pan": "radius_m",
+            "bowl": "radius_m",
+        }[o.kind]
         if getattr(o, needs) is None:
             raise SceneError(f"{path}: object {o.name} of kind {o.kind} needs {needs}")
     return scene
@@ -142,26 +158,52 @@ def _material(asset: ET.Element, o: SceneObject) -> str:
     else:
         dark = tuple(0.6 * c for c in rgb)
         builtin = "checker" if o.texture == "checker" else "gradient"
-        ET.SubElement(asset, "texture", name=f"tex_{o.name}", type="cube", builtin=builtin, rgb1=_f(rgb),
-                      rgb2=_f(dark), width="64", height="64")
+        ET.SubElement(
+            asset,
+            "texture",
+            name=f"tex_{o.name}",
+            type="cube",
+            builtin=builtin,
+            rgb1=_f(rgb),
+            rgb2=_f(dark),
+            width="64",
+            height="64",
+        )
         ET.SubElement(asset, "material", name=name, texture=f"tex_{o.name}", specular="0.2")
     return name
 
 
 def _geom(body: ET.Element, o: SceneObject, index: int, material: str, **attrs: str) -> None:
-    ET.SubElement(body, "geom", name=f"{o.name}_g{index}", material=material, friction=OBJECT_FRICTION,
-                  **OBJECT_CONTACT, **attrs)
+    ET.SubElement(
+        body, "geom", name=f"{o.name}_g{index}", material=material, friction=OBJECT_FRICTION, **OBJECT_CONTACT, **attrs
+    )
 
 
-def _ring(body: ET.Element, o: SceneObject, material: str, radius: float, height: float, wall: float,
-          z0: float, first_index: int, n: int = 20) -> None:
+def _ring(
+    body: ET.Element,
+    o: SceneObject,
+    material: str,
+    radius: float,
+    height: float,
+    wall: float,
+    z0: float,
+    first_index: int,
+    n: int = 20,
+) -> None:
     """A circular wall of n boxes (pan and bowl sides)."""
     seg = 2 * radius * math.tan(math.pi / n) + 0.002
     for k in range(n):
         a = 2 * math.pi * k / n
-        _geom(body, o, first_index + k, material, type="box", size=_f((wall / 2, seg / 2, height / 2)),
-              pos=_f((radius * math.cos(a), radius * math.sin(a), z0 + height / 2)),
-              euler=_f((0, 0, a)))
+        _geom(
+            body,
+            o,
+            first_index + k,
+            material,
+            type="box",
+            size=_f((wall / 2, seg / 2, height / 2)),
+            pos=_f((radius * math.cos(a), radius * math.sin(a), z0 + height / 2)),
+            euler=_f((0, 0, a)),
+        )
 
 
 def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: tuple[float, float, float]) -> None:
@@ -175,14 +217,20 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
     if o.kind in ("box", "platform"):
         sx, sy, sz = o.size_m
         if o.kind == "platform":  # base and a lighter top plate, like a kitchen scale
-            _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, sz * 0.4)), pos=_f((0, 0, sz * 0.4)),
-                  mass=mass)
+            _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, sz * 0.4)), pos=_f((0, 0, sz * 0.4)), mass=mass)
             ET.SubElement(asset, "material", name=f"mat_{o.name}_top", rgba="0.85 0.85 0.85 1")
-            _geom(body, o, 1, f"mat_{o.name}_top", type="box", size=_f((sx * 0.45, sy * 0.45, sz * 0.1)),
-                  pos=_f((0, 0, sz * 0.9)), mass=_f(o.mass_kg * 0.2))
+            _geom(
+                body,
+                o,
+                1,
+                f"mat_{o.name}_top",
+                type="box",
+                size=_f((sx * 0.45, sy * 0.45, sz * 0.1)),
+                pos=_f((0, 0, sz * 0.9)),
+                mass=_f(o.mass_kg * 0.2),
+            )
         else:
-            _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, sz / 2)), pos=_f((0, 0, sz / 2)),
-                  mass=mass)
+            _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, sz / 2)), pos=_f((0, 0, sz / 2)), mass=mass)
     elif o.kind == "sphere":
         _geom(body, o, 0, mat, type="sphere", size=_f(o.radius_m), pos=_f((0, 0, o.radius_m)), mass=mass)
     elif o.kind in ("cylinder", "plate", "bottle"):
@@ -195,10 +243,26 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
         if o.kind == "bottle":  # body, neck and cap along the bottle axis (local z before tilting)
             inner = ET.SubElement(body, "body", name=f"{o.name}_shape", pos=_f(pos), euler=_f(euler))
             body_h = h * 0.7
-            _geom(inner, o, 0, mat, type="cylinder", size=_f((r, body_h / 2)), pos=_f((0, 0, -h / 2 + body_h / 2)),
-                  mass=_f(o.mass_kg * 0.85))
-            _geom(inner, o, 1, mat, type="cylinder", size=_f((r * 0.45, h * 0.15)),
-                  pos=_f((0, 0, -h / 2 + body_h + h * 0.15)), mass=_f(o.mass_kg * 0.15))
+            _geom(
+                inner,
+                o,
+                0,
+                mat,
+                type="cylinder",
+                size=_f((r, body_h / 2)),
+                pos=_f((0, 0, -h / 2 + body_h / 2)),
+                mass=_f(o.mass_kg * 0.85),
+            )
+            _geom(
+                inner,
+                o,
+                1,
+                mat,
+                type="cylinder",
+                size=_f((r * 0.45, h * 0.15)),
+                pos=_f((0, 0, -h / 2 + body_h + h * 0.15)),
+                mass=_f(o.mass_kg * 0.15),
+            )
         else:
             _geom(body, o, 0, mat, type="cylinder", size=_f((r, h / 2)), pos=_f(pos), euler=_f(euler), mass=mass)
     elif o.kind in ("pan", "bowl"):
@@ -212,13 +276,28 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
         sx, sy, sz = o.size_m
         w = 0.008
         _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, w / 2)), pos=_f((0, 0, w / 2)), mass=mass)
-        for k, (px, py, hx, hy) in enumerate(((sx / 2 - w / 2, 0, w / 2, sy / 2), (-sx / 2 + w / 2, 0, w / 2, sy / 2),
-                                              (0, sy / 2 - w / 2, sx / 2, w / 2), (0, -sy / 2 + w / 2, sx / 2, w / 2))):
+        for k, (px, py, hx, hy) in enumerate(
+            (
+                (sx / 2 - w / 2, 0, w / 2, sy / 2),
+                (-sx / 2 + w / 2, 0, w / 2, sy / 2),
+                (0, sy / 2 - w / 2, sx / 2, w / 2),
+                (0, -sy / 2 + w / 2, sx / 2, w / 2),
+            )
+        ):
             _geom(body, o, 1 + k, mat, type="box", size=_f((hx, hy, sz / 2)), pos=_f((px, py, sz / 2)))
         # lid hinged along the back (-x) top edge; angle 0 = closed, positive opens upward
         lid = ET.SubElement(body, "body", name=f"{o.name}_lid", pos=_f((-sx / 2, 0, sz)))
-        ET.SubElement(lid, "joint", name=f"{o.name}_hinge", type="hinge", axis="0 -1 0", range="0 1.92",
-                      damping="0.05", ref="0")
+        ET.SubElement(
+            lid, "joint", name=f"{o.name}_hinge", type="hinge", axis="0 -1 0", range="0 1.92", damping="0.05", ref="0"
+        )
         ET.SubElement(asset, "material", name=f"mat_{o.name}_lid", rgba=_f((*[0.8 * c for c in COLORS[o.color]], 1)))
-        _geom(lid, o, 10, f"mat_{o.name}_lid", type="box", size=_f((sx / 2, sy / 2 + 0.004, w / 2)),
-              pos=_f((sx / 2, 0, w / 2)), mass=_f(0.05))
+        _geom(
+            lid,
+            o,
+            10,
+            f"mat_{o.name}_lid",
+            type="box",
+            size=_f((sx / 2, sy / 2 + 0.004, w / 2)),
+            pos=_f((sx / 2, 0, w / 2)),
+            mass=_f(0.05),
+        )

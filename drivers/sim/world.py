@@ -50,33 +50,67 @@ def camera_fovy_deg(camera: CameraConfig) -> float:
 def build_mjcf(spec: RobotSpec, scene: Scene, poses: dict, camera: CameraConfig, dt: float) -> str:
     root = ET.Element("mujoco", model=f"goalvla_{scene.name}")
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
-    ET.SubElement(root, "option", timestep=f"{dt:g}", integrator="implicitfast", cone="elliptic",
-                  impratio="10")
+    ET.SubElement(root, "option", timestep=f"{dt:g}", integrator="implicitfast", cone="elliptic", impratio="10")
     visual = ET.SubElement(root, "visual")
     ET.SubElement(visual, "global", offwidth=str(MAX_RENDER_SIZE[0]), offheight=str(MAX_RENDER_SIZE[1]))
     ET.SubElement(visual, "quality", shadowsize="2048")
     ET.SubElement(visual, "headlight", ambient="0.35 0.35 0.35", diffuse="0.4 0.4 0.4", specular="0 0 0")
     asset = ET.SubElement(root, "asset")
-    ET.SubElement(asset, "texture", name="tex_table", type="2d", builtin="checker", rgb1="0.62 0.48 0.34",
-                  rgb2="0.58 0.44 0.31", width="256", height="256", mark="edge", markrgb="0.55 0.42 0.3")
+    ET.SubElement(
+        asset,
+        "texture",
+        name="tex_table",
+        type="2d",
+        builtin="checker",
+        rgb1="0.62 0.48 0.34",
+        rgb2="0.58 0.44 0.31",
+        width="256",
+        height="256",
+        mark="edge",
+        markrgb="0.55 0.42 0.3",
+    )
     ET.SubElement(asset, "material", name="mat_table", texture="tex_table", texrepeat="8 8", specular="0.1")
-    ET.SubElement(asset, "texture", name="tex_floor", type="2d", builtin="flat", rgb1="0.3 0.3 0.32",
-                  width="16", height="16")
+    ET.SubElement(
+        asset, "texture", name="tex_floor", type="2d", builtin="flat", rgb1="0.3 0.3 0.32", width="16", height="16"
+    )
     ET.SubElement(asset, "material", name="mat_floor", texture="tex_floor")
     world = ET.SubElement(root, "worldbody")
     ET.SubElement(world, "light", pos="0.4 0.3 2.2", dir="0 0 -1", diffuse="0.6 0.6 0.6", castshadow="true")
-    ET.SubElement(world, "light", pos="1.5 -1.0 1.8", dir="-0.6 0.4 -0.7", diffuse="0.3 0.3 0.3",
-                  castshadow="false")
-    ET.SubElement(world, "geom", name="floor", type="plane", size="3 3 0.1", pos="0 0 -0.75",
-                  material="mat_floor", contype="1", conaffinity="3")
+    ET.SubElement(world, "light", pos="1.5 -1.0 1.8", dir="-0.6 0.4 -0.7", diffuse="0.3 0.3 0.3", castshadow="false")
+    ET.SubElement(
+        world,
+        "geom",
+        name="floor",
+        type="plane",
+        size="3 3 0.1",
+        pos="0 0 -0.75",
+        material="mat_floor",
+        contype="1",
+        conaffinity="3",
+    )
     sx, sy, sz = TABLE_SIZE_M
-    ET.SubElement(world, "geom", name="table", type="box", size=f"{sx / 2} {sy / 2} {sz / 2}",
-                  pos=f"{TABLE_CENTER_XY_M[0]} {TABLE_CENTER_XY_M[1]} {-sz / 2}", material="mat_table",
-                  contype="1", conaffinity="3", friction="0.8 0.01 0.001")
+    ET.SubElement(
+        world,
+        "geom",
+        name="table",
+        type="box",
+        size=f"{sx / 2} {sy / 2} {sz / 2}",
+        pos=f"{TABLE_CENTER_XY_M[0]} {TABLE_CENTER_XY_M[1]} {-sz / 2}",
+        material="mat_table",
+        contype="1",
+        conaffinity="3",
+        friction="0.8 0.01 0.001",
+    )
     T = look_at(np.array(camera.sim.position_m), np.array(camera.sim.look_at_m))
     x_mj, y_mj = T[:3, 0], -T[:3, 1]  # MuJoCo cameras look along -z with y up
-    ET.SubElement(world, "camera", name=CAMERA_NAME, pos=" ".join(f"{v:.6g}" for v in T[:3, 3]),
-                  xyaxes=" ".join(f"{v:.9g}" for v in (*x_mj, *y_mj)), fovy=f"{camera_fovy_deg(camera):.9g}")
+    ET.SubElement(
+        world,
+        "camera",
+        name=CAMERA_NAME,
+        pos=" ".join(f"{v:.6g}" for v in T[:3, 3]),
+        xyaxes=" ".join(f"{v:.9g}" for v in (*x_mj, *y_mj)),
+        fovy=f"{camera_fovy_deg(camera):.9g}",
+    )
     actuators = ET.Element("actuator")
     add_robot(world, actuators, spec)
     for o in scene.objects:
@@ -89,8 +123,9 @@ def build_mjcf(spec: RobotSpec, scene: Scene, poses: dict, camera: CameraConfig,
 class SimWorld:
     """Owns the MuJoCo model and data, the physics clock and the fault schedule shared by the sim devices."""
 
-    def __init__(self, sim: SimConfig, camera: CameraConfig, spec: RobotSpec | None = None,
-                 home_q: np.ndarray | None = None) -> None:
+    def __init__(
+        self, sim: SimConfig, camera: CameraConfig, spec: RobotSpec | None = None, home_q: np.ndarray | None = None
+    ) -> None:
         self.config = sim
         self.camera_config = camera
         self.spec = spec or load_robot_spec()
