@@ -24,6 +24,11 @@ class RobotConfig(StrictModel):
     home_q_rad: Joints7 | None = Field(default=None, description="ready posture; default: the description's")
     control_rate_hz: float = Field(default=100.0, ge=10.0, le=250.0, description="servo streaming rate")
     tracking_error_max_rad: float = Field(default=0.05, gt=0, description="abort if |q_cmd - q| exceeds this")
+    collision_sensitivity: int = Field(default=3, ge=1, le=5, description="xArm collision detection 1..5 (3 vendor)")
+    payload_kg: float = Field(default=0.82, ge=0, le=3.5, description="tool + load mass (xArm Gripper: 0.82 kg)")
+    payload_cog_m: Vec3 = Field(default=(0.0, 0.0, 0.048), description="tool + load centre of mass, flange frame")
+    gripper_speed: int = Field(default=1500, ge=1, le=5000, description="xArm Gripper speed, SDK units (r/min)")
+    servo_late_s: float = Field(default=0.05, gt=0, description="a servo call slower than this is logged as late")
 
     @model_validator(mode="after")
     def _needs_ip(self) -> RobotConfig:

@@ -1,0 +1,191 @@
+"""UFACTORY xArm 7 on xarm-python-sdk: servo-mode streaming (mode 1) with the state from the 100 Hz report.
+
+The SDK speaks degrees and millimetres; this class is the only place that converts (radians/metres outside).
+Every SDK call's code goes through `codes.check`, so the layers above see the typed errors of drivers.errors.
+`connect()` is all-or-nothing; `close()` always tries every release step (stop, leave servo mode, disconnect).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import logging
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from drivers.config import RobotConfig
+from drivers.description import RobotSpec, load_robot_spec
+from drivers.errors import ArmStoppedError, ControllerError, DeviceNotFoundError, DriverError, NotConnectedError
+from drivers.interfaces import Arm
+from drivers.types import JointState
+from drivers.xarm7 import controller_safety
+from drivers.xarm7.codes import check, controller_codes
+
+log = logging.getLogger(__name__)
+
+SERVO_MODE = 1
+POSITION_MODE = 0
+STOP_STATE = 4
+READY_STATES = (0, 1, 2)  # 1 moving, 2 ready/sleeping; 0 just after set_state(0)
+READY_TIMEOUT_S = 1.0
+
+ApiFactory = Callable[..., Any]
+
+
+def sdk_api_factory(ip: str, **kwargs: Any) -> Any:
+    """The real XArmAPI (imported here: the SDK is optional and prints its version on import)."""
+    with contextlib.redirect_stdout(io.StringIO()):
+        from xarm.wrapper import XArmAPI
+    return XArmAPI(ip, **kwargs)
+
+
+class XArm7(Arm):
+    """Servo-mode xArm 7. `safety` is the profile's SafetyConfig: it sets the controller's own limits."""
+
+    def __init__(
+        self, robot: RobotConfig, safety: Any, spec: RobotSpec | None = None, api_factory: ApiFactory | None = None
+    ) -> None:
+        if robot.ip is None:
+            raise ValueError("XArm7 needs robot.ip (the controller's IPv4 address)")
+        self.config = robot
+        self.spec = spec or load_robot_spec()
+        self.joint_names = self.spec.joint_names
+        self.controller_safety = controller_safety.ControllerSafety.from_profile(robot, safety, self.spec)
+        self._factory = api_factory or sdk_api_factory
+        self.api: Any = None
+        self._stopped = False
+        self.firmware_version = ""
+        self.last_servo_call_s = 0.0
+
+    # -- lifecycle ----------------------------------------------------------------------------------------
+    @property
+    def is_connected(self) -> bool:
+        return self.api is not None
+
+    def connect(self) -> None:
+        if self.api is not None:
+            return
+        ip = str(self.config.ip)
+        try:
+            api = self._factory(ip, is_radian=False, do_not_open=True, report_type="real")
+        except Exception as e:
+            raise DriverError(f"xArm SDK could not be set up: {e}") from e
+        try:
+            api.connect()
+        except Exception as e:
+            raise DeviceNotFoundError(
+                f"no xArm controller answers at {ip} ({e}): check the Ethernet cable, that this PC has an "
+                f"address in the robot's subnet, and `ping {ip}`"
+            ) from e
+        self.api = api
+        try:
+            self.firmware_version = str(check(api, "get_version", api.get_version()))
+            self._enable(POSITION_MODE)
+            controller_safety.apply(api, self.controller_safety)
+            self._enable(SERVO_MODE)
+        except BaseException:
+            self._release()
+            raise
+        self._stopped = False
+        log.info("xArm 7 at %s connected (firmware %s), servo mode", ip, self.firmware_version)
+
+    def close(self) -> None:
+        if self.api is not None:
+            self._release()
+
+    def _release(self) -> None:
+        """Stop, leave servo mode, disconnect: every step is tried even if an earlier one fails."""
+        api, self.api = self.api, None
+        steps = (
+            ("set_state(4)", lambda: api.set_state(STOP_STATE)),
+            ("set_mode(0)", lambda: api.set_mode(POSITION_MODE)),
+            ("set_state(0)", lambda: api.set_state(0)),
+            ("disconnect", api.disconnect),
+        )
+        for name, step in steps:
+            try:
+                step()
+            except Exception as e:
+                log.warning("xArm close: %s failed: %s", name, e)
+
+    def _require(self, what: str) -> Any:
+        if self.api is None:
+            raise NotConnectedError(f"XArm7.{what} before connect() or after close()")
+        if not self.api.connected:
+            raise NotConnectedError(f"XArm7.{what}: connection to {self.config.ip} lost (check the Ethernet link)")
+        return self.api
+
+    # -- enable / fault handling --------------------------------------------------------------------------
+    def _enable(self, mode: int) -> None:
+        """The vendor's enable sequence, then wait until the controller reports the mode and a ready state."""
+        api = self.api
+        check(api, "clean_error", api.clean_error())
+        check(api, "clean_warn", api.clean_warn())
+        check(api, "motion_enable", api.motion_enable(True))
+        check(api, "set_mode", api.set_mode(mode))
+        check(api, "set_state", api.set_state(0))
+        deadline = time.monotonic() + READY_TIMEOUT_S
+        while api.mode != mode or api.state not in READY_STATES:
+            if time.monotonic() > deadline:
+                error, _ = controller_codes(api)
+                if error:
+                    raise ControllerError(error, "the arm did not enable")
+                raise DriverError(
+                    f"xArm did not enter mode {mode} (reports mode {api.mode}, state {api.state}) within "
+                    f"{READY_TIMEOUT_S} s: check the e-stop and the controller's web UI"
+                )
+            time.sleep(0.01)
+
+    def clear_fault(self) -> None:
+        self._require("clear_fault()")
+        self._enable(SERVO_MODE)
+        error, _ = controller_codes(self.api)
+        if error:
+            raise ControllerError(error, "still present after clearing")
+        self._stopped = False
+
+    def stop(self) -> None:
+        """Software stop (state 4): immediate, no lock, safe from any thread; clear_fault() resumes."""
+        self._stopped = True
+        api = self.api
+        if api is None:
+            return
+        try:
+            api.set_state(STOP_STATE)
+        except Exception as e:
+            log.error("xArm stop: set_state(4) failed: %s", e)
+
+    def emergency_stop(self) -> None:
+        """The SDK's emergency stop (repeats set_state(4) until the controller reports it, up to 3 s)."""
+        self._stopped = True
+        if self.api is not None:
+            self.api.emergency_stop()
+
+    # -- state and commands -------------------------------------------------------------------------------
+    def read_state(self) -> JointState:
+        api = self._require("read_state()")
+        n = len(self.joint_names)
+        q = np.radians(np.asarray(api.angles, dtype=np.float64)[:n])
+        qd = np.radians(np.asarray(api.realtime_joint_speeds, dtype=np.float64)[:n])
+        return JointState(self.joint_names, q, qd, time.monotonic(), int(api.error_code or 0))
+
+    def servo(self, q: np.ndarray) -> None:
+        api = self._require("servo()")
+        q = np.asarray(q, dtype=np.float64)
+        if q.shape != (len(self.joint_names),) or not np.all(np.isfinite(q)):
+            raise ValueError(f"XArm7.servo: need {len(self.joint_names)} finite joint angles [rad], got {q}")
+        if self._stopped:
+            raise ArmStoppedError("arm is stopped; call clear_fault() to re-enable servo mode")
+        if api.error_code:
+            raise ControllerError(int(api.error_code), "reported by the controller; call clear_fault()")
+        t0 = time.perf_counter()
+        code = api.set_servo_angle_j(np.degrees(q).tolist(), is_radian=False)
+        self.last_servo_call_s = time.perf_counter() - t0
+        if self.last_servo_call_s > self.config.servo_late_s:
+            log.warning("set_servo_angle_j took %.0f ms (late)", 1000 * self.last_servo_call_s)
+        if self._stopped:  # stop() arrived while the call was in flight: do not report success
+            raise ArmStoppedError("arm was stopped during the servo call; call clear_fault()")
+        check(api, "set_servo_angle_j", code)
