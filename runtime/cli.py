@@ -63,5 +63,5 @@ def demo(
     run_demo(profile, out)
 
 
-def main() -> None:
+if __name__ == "__main__":
     app()

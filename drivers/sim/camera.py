@@ -149,5 +149,5 @@ class SimCamera(Camera):
         c = self.config
         noisy = depth + self._rng.normal(0.0, 1.0, depth.shape).astype(np.float32) * (c.sim.depth_noise_sigma_m * depth)
         noisy = invalidate_depth_edges(noisy, c.sim.edge_invalid_jump_m)
-        noisy[(depth < c.min_depth_m) | (depth > c.max_depth_m)] = np.nan
+        noisy[~((noisy >= c.min_depth_m) & (noisy <= c.max_depth_m))] = np.nan  # range gate on the measurement
         return noisy.astype(np.float32)
