@@ -8,10 +8,10 @@ the problem. Relative paths in the config are resolved against the file that wro
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import yaml
-from pydantic import Field, ValidationError
+from pydantic import Field, ValidationError, model_validator
 
 from calibration.config import CalibrationConfig
 from drivers.config import CameraConfig, RobotConfig, SimConfig, StrictModel
@@ -19,16 +19,71 @@ from pipeline.config import PipelineConfig
 from safety.config import SafetyConfig
 
 KeyPath = tuple[str, ...]
-PATH_KEYS: tuple[KeyPath, ...] = (("calibration", "file"), ("sim", "scenes_dir"), ("runtime", "runs_dir"))
+PATH_KEYS: tuple[KeyPath, ...] = (
+    ("calibration", "file"),
+    ("sim", "scenes_dir"),
+    ("runtime", "runs_dir"),
+    *((("runtime", "zenoh", "tls", k)) for k in ("root_ca_certificate", "certificate", "private_key")),
+)
 
 
 class ConfigError(ValueError):
     """A profile could not be read or validated; the message lists every problem with file and key."""
 
 
+class ZenohTlsConfig(StrictModel):
+    """TLS for links off the loopback (zenoh transport.link.tls); mutual: both sides present certificates."""
+
+    root_ca_certificate: Path
+    certificate: Path
+    private_key: Path
+    mutual: bool = True
+
+
+class ZenohConfig(StrictModel):
+    """The runtime node listens on `endpoint`; console and e-stop nodes connect to it. Scouting is always off."""
+
+    endpoint: str = Field(default="tcp/127.0.0.1:7447", pattern=r"^(tcp|tls)/[^/]+:\d+$")
+    tls: ZenohTlsConfig | None = None
+    access_control: dict[str, Any] | None = Field(default=None, description="zenoh access_control block, verbatim")
+
+    @model_validator(mode="after")
+    def _loopback_or_tls(self) -> ZenohConfig:
+        host = self.endpoint.split("/", 1)[1].rsplit(":", 1)[0]
+        if self.endpoint.startswith("tcp/") and host not in ("127.0.0.1", "localhost", "[::1]"):
+            raise ValueError(
+                f"endpoint {self.endpoint}: plain tcp is for loopback only; use tls/ with runtime.zenoh.tls"
+            )
+        if self.endpoint.startswith("tls/") and self.tls is None:
+            raise ValueError(f"endpoint {self.endpoint} needs runtime.zenoh.tls (certificates)")
+        return self
+
+
+class StateBudgets(StrictModel):
+    """Seconds each state may last before the run fails; awaiting_confirm is the confirm timeout."""
+
+    capturing: float = Field(default=5.0, gt=0)
+    reasoning: float = Field(default=120.0, gt=0)
+    grounding: float = Field(default=30.0, gt=0)
+    planning: float = Field(default=60.0, gt=0)
+    awaiting_confirm: float = Field(default=120.0, gt=0)
+    executing: float = Field(default=120.0, gt=0)
+    verifying: float = Field(default=15.0, gt=0)
+
+
 class RuntimeConfig(StrictModel):
     robot_id: str = Field(default="xarm7", pattern=r"^[A-Za-z0-9_\-]+$", description="Zenoh key prefix part")
     runs_dir: Path = Field(default=Path("runs"), description="run records are written below this folder")
+    zenoh: ZenohConfig = ZenohConfig()
+    budgets_s: StateBudgets = StateBudgets()
+    deadman_timeout_s: float = Field(default=0.2, gt=0, le=1.0, description="e-stop node heartbeat max age")
+    heartbeat_rate_hz: float = Field(default=20.0, ge=5.0, le=200.0)
+    telemetry_rate_hz: float = Field(default=50.0, ge=50.0, le=250.0, description="joint_state publishing rate")
+    estop_node: Literal["external", "in_process"] = Field(
+        default="external", description="in_process: a heartbeat thread in the run itself (sim profiles only)"
+    )
+    verify_position_tol_m: float = Field(default=0.03, gt=0, description="achieved vs goal object translation")
+    verify_rotation_tol_deg: float = Field(default=15.0, gt=0, description="achieved vs goal object rotation")
 
 
 class Profile(StrictModel):

@@ -1,0 +1,124 @@
+"""The supervisor stops the arm on e-stop, deadman loss, node death, faults and budget overruns."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from runtime_helpers import RecordingArm, wait_for
+
+from runtime.bus import Bus
+from runtime.config import StateBudgets
+from runtime.estop import EStopNode
+from runtime.messages import Command, JointStateMsg
+from runtime.states import State, StateMachine
+from runtime.supervisor import Supervisor
+
+TO_EXECUTING = (State.CAPTURING, State.REASONING, State.GROUNDING, State.PLANNING, State.AWAITING_CONFIRM)
+
+
+@pytest.fixture
+def rig(runtime_cfg):
+    hub = Bus(runtime_cfg.zenoh, runtime_cfg.robot_id, "listen")
+    node_bus = Bus(runtime_cfg.zenoh, runtime_cfg.robot_id, "connect")
+    arm = RecordingArm()
+    machine = StateMachine(runtime_cfg.budgets_s)
+    sup = Supervisor(machine, hub, arm, None, runtime_cfg).start()
+    node = EStopNode(node_bus, "pendant", runtime_cfg.heartbeat_rate_hz).start()
+    assert wait_for(sup.deadman_ok), "no heartbeat from the e-stop node"
+    yield sup, machine, arm, node, node_bus
+    node.close()
+    sup.close()
+    node_bus.close()
+    hub.close()
+
+
+def _to_executing(machine: StateMachine) -> None:
+    for s in TO_EXECUTING:
+        machine.advance(s)
+    machine.advance(State.EXECUTING)
+
+
+def test_estop_message_stops_the_arm_and_latches(rig):
+    sup, machine, arm, node, _ = rig
+    _to_executing(machine)
+    node.press("test button")
+    assert wait_for(arm.stopped.is_set, 1.0)
+    assert machine.state == State.ESTOPPED and "test button (from pendant)" in machine.reason
+    assert sup.cancel.is_set()
+
+
+def test_estop_when_idle_still_latches(rig):
+    _sup, machine, arm, node, _ = rig
+    node.press()
+    assert wait_for(lambda: machine.state == State.ESTOPPED)
+    assert arm.stopped.is_set()
+
+
+def test_frozen_node_trips_the_deadman_during_execution(rig):
+    _sup, machine, arm, node, _ = rig
+    _to_executing(machine)
+    t0 = time.monotonic()
+    node.paused.set()
+    assert wait_for(lambda: machine.state == State.ESTOPPED, 2.0)
+    assert time.monotonic() - t0 < 0.2 + 0.1  # deadman 0.2 s, watch at 200 Hz
+    assert "deadman" in machine.reason and arm.stopped.is_set()
+
+
+def test_frozen_node_outside_execution_does_not_stop(rig):
+    sup, machine, arm, node, _ = rig
+    machine.advance(State.CAPTURING)
+    node.paused.set()
+    time.sleep(0.4)
+    assert machine.state == State.CAPTURING and not sup.deadman_ok()
+    assert not arm.stopped.is_set()
+
+
+def test_node_process_gone_stops_at_once(rig):
+    _sup, machine, arm, node, node_bus = rig
+    _to_executing(machine)
+    node.close()
+    node_bus.close()  # the token vanishes with the session
+    assert wait_for(lambda: machine.state == State.ESTOPPED, 1.0)
+    assert arm.stopped.is_set()
+
+
+def test_controller_fault_fails_the_run_and_stops(rig):
+    _sup, machine, arm, _node, _ = rig
+    _to_executing(machine)
+    arm.fault_code = 31
+    assert wait_for(lambda: machine.state == State.FAILED)
+    assert "controller error 31" in machine.reason and arm.stopped.is_set()
+
+
+def test_driver_silence_fails_the_run(rig):
+    _sup, machine, arm, _node, _ = rig
+    machine.advance(State.CAPTURING)
+    arm.broken = True
+    assert wait_for(lambda: machine.state == State.FAILED)
+    assert "stopped answering" in machine.reason
+
+
+def test_budget_overrun_fails_with_the_numbers(runtime_cfg):
+    cfg = runtime_cfg.model_copy(update={"budgets_s": StateBudgets(reasoning=0.1)})
+    with Bus(cfg.zenoh, cfg.robot_id, "listen") as hub:
+        machine = StateMachine(cfg.budgets_s)
+        sup = Supervisor(machine, hub, RecordingArm(), None, cfg).start()
+        machine.advance(State.CAPTURING)
+        machine.advance(State.REASONING)
+        assert wait_for(lambda: machine.state == State.FAILED)
+        assert "REASONING took too long" in machine.reason and "budget 0.1 s" in machine.reason
+        sup.close()
+
+
+def test_abort_command_and_telemetry_rate(rig):
+    _sup, machine, arm, _node, node_bus = rig
+    stamps = []
+    node_bus.subscribe(node_bus.keys.joint_state, JointStateMsg, lambda k, m: stamps.append(time.monotonic()))
+    time.sleep(1.0)
+    rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
+    assert rate >= 45.0, f"joint_state at {rate:.1f} Hz"
+    _to_executing(machine)
+    node_bus.publish(node_bus.keys.command, Command(stamp_s=0, action="abort", source="console"))
+    assert wait_for(lambda: machine.state == State.FAILED)
+    assert machine.reason == "aborted by the operator (from console)" and arm.stopped.is_set()
