@@ -37,6 +37,7 @@ class SafetyConfig(StrictModel):
     max_joint_step_rad: float = Field(default=0.04, gt=0, description="largest set-point change per tick")
     padding_m: float = Field(default=0.01, ge=0, description="added to every collision geometry")
     collision_resolution_rad: float = Field(default=0.01, gt=0, description="max joint motion between checks")
+    cloud_voxel_m: float = Field(default=0.01, gt=0, description="octree cell size of point-cloud obstacles")
     workspace: BoxRegion = BoxRegion(name="workspace", min_m=(-0.35, -0.7, -0.005), max_m=(0.95, 0.7, 1.2))
     keep_out: tuple[BoxRegion, ...] = ()
 
