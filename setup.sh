@@ -37,11 +37,13 @@ fi
 stamp=.venv/.setup-stamp
 want=$(sha256sum pyproject.toml setup.sh | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
-  echo "setup: installing Python packages into .venv (about 2 minutes the first time)"
-  .venv/bin/pip install -q --upgrade pip
-  .venv/bin/pip install -q -e '.[dev]'
-  # pyorbbecsdk2's metadata pins numpy<2 and open3d 0.18; without --no-deps it would break the environment.
-  .venv/bin/pip install -q --no-deps pyorbbecsdk2==2.1.2
+  echo "setup: installing Python packages into .venv (about 2 minutes the first time; log: .venv/setup.log)"
+  {
+    .venv/bin/pip install --upgrade pip &&
+      .venv/bin/pip install -e '.[dev]' &&
+      # pyorbbecsdk2's metadata pins numpy<2 and open3d 0.18; without --no-deps it would break the environment.
+      .venv/bin/pip install --no-deps pyorbbecsdk2==2.1.2
+  } >.venv/setup.log 2>&1 || { tail -n 40 .venv/setup.log >&2; echo "setup: pip failed (see .venv/setup.log)" >&2; exit 1; }
   echo "$want" >"$stamp"
 fi
 echo "setup: ready (.venv)"
