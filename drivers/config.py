@@ -45,6 +45,9 @@ class SimCameraConfig(StrictModel):
     horizontal_fov_deg: float = Field(default=80.0, gt=10.0, lt=150.0, description="Femto Bolt colour: 80 deg")
     depth_noise_sigma_m: float = Field(default=0.0015, ge=0, description="noise std at 1 m; grows with range")
     edge_invalid_jump_m: float = Field(default=0.04, gt=0, description="depth jump that marks a pixel invalid")
+    mount: Literal["world", "flange"] = Field(default="world", description="flange: eye-in-hand (moves with link7)")
+    flange_xyz_m: Vec3 = Field(default=(0.0, 0.11, 0.05), description="mount 'flange': T_flange_camera position")
+    flange_rpy_rad: Vec3 = Field(default=(0.26, 0.0, 0.0), description="mount 'flange': optical frame rpy (xyz)")
 
 
 class CameraConfig(StrictModel):
@@ -78,6 +81,21 @@ class SimFaultsConfig(StrictModel):
     servo_stall_s: float = Field(default=0.2, ge=0)
 
 
+class SimBoardConfig(StrictModel):
+    """A printed calibration board in the sim (hand-eye): a thin visual-only box with the board image on its face.
+
+    The pose is that of OpenCV's board frame (origin at the first square's outer corner, z out of the back) in
+    the parent: the flange link (eye-to-hand, board carried by the arm) or the base (eye-in-hand, on the table).
+    """
+
+    texture: Path = Field(description="PNG of the board, exactly its printed extent (no margin)")
+    size_m: tuple[float, float] = Field(description="printed extent along the board's x and y [m]")
+    mount: Literal["flange", "table"] = "flange"
+    xyz_m: Vec3 = (0.0, 0.0, 0.0)
+    rpy_rad: Vec3 = (0.0, 0.0, 0.0)
+    thickness_m: float = Field(default=0.004, gt=0)
+
+
 class SimConfig(StrictModel):
     scene: str = Field(default="tabletop", description="scene name: <scenes_dir>/<scene>.yaml")
     scenes_dir: Path = Path("scenes")
@@ -85,6 +103,7 @@ class SimConfig(StrictModel):
     physics_dt_s: float = Field(default=0.002, gt=0, le=0.01)
     realtime: bool = Field(default=True, description="physics advances with the wall clock on its own thread")
     faults: SimFaultsConfig = SimFaultsConfig()
+    board: SimBoardConfig | None = Field(default=None, description="calibration board (hand-eye on the sim)")
 
     @property
     def scene_file(self) -> Path:

@@ -66,7 +66,7 @@ class SimCamera(Camera):
     @property
     def T_base_camera(self) -> np.ndarray:
         """Ground-truth extrinsics (the base frame is the world frame)."""
-        return self.world.T_world_camera.copy()
+        return self.world.camera_pose()
 
     def connect(self) -> None:
         if self._renderer is None:

@@ -12,10 +12,12 @@ import threading
 import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
-from drivers.config import CameraConfig, SimConfig
+from drivers.config import CameraConfig, SimBoardConfig, SimConfig
 from drivers.description import RobotSpec, load_robot_spec
 from drivers.description.mjcf import add_robot
 from drivers.sim.gl import mujoco
@@ -47,7 +49,48 @@ def camera_fovy_deg(camera: CameraConfig) -> float:
     return math.degrees(2 * math.atan((camera.height_px / 2) / fx))
 
 
-def build_mjcf(spec: RobotSpec, scene: Scene, poses: dict, camera: CameraConfig, dt: float) -> str:
+def camera_mount_pose(camera: CameraConfig) -> np.ndarray:
+    """The camera's optical frame in its parent: T_world_camera, or T_flange_camera when flange-mounted."""
+    if camera.sim.mount == "world":
+        return look_at(np.array(camera.sim.position_m), np.array(camera.sim.look_at_m))
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_euler("xyz", camera.sim.flange_rpy_rad).as_matrix()
+    T[:3, 3] = camera.sim.flange_xyz_m
+    return T
+
+
+def add_board(parent: ET.Element, asset: ET.Element, board: SimBoardConfig) -> None:
+    """A visual-only thin box whose +z face shows the board image (MuJoCo maps a 2d texture over each face with
+    image x along the face's +x and image rows along its -y), placed so the board frame lands at board.xyz/rpy."""
+    ET.SubElement(asset, "texture", name="tex_board", type="2d", file=str(Path(board.texture).resolve()))
+    ET.SubElement(asset, "material", name="mat_board", texture="tex_board", specular="0", shininess="0")
+    w, h = board.size_m
+    T_parent_board = np.eye(4)
+    T_parent_board[:3, :3] = Rotation.from_euler("xyz", board.rpy_rad).as_matrix()
+    T_parent_board[:3, 3] = board.xyz_m
+    T_geom_board = np.eye(4)  # board x = face x, board y = face -y, board z = -face normal, origin at a corner
+    T_geom_board[:3, :3] = np.diag([1.0, -1.0, -1.0])
+    T_geom_board[:3, 3] = (-w / 2, h / 2, board.thickness_m / 2)
+    T = T_parent_board @ np.linalg.inv(T_geom_board)
+    x, y, z, qw = Rotation.from_matrix(T[:3, :3]).as_quat()
+    ET.SubElement(
+        parent,
+        "geom",
+        name="calibration_board",
+        type="box",
+        size=f"{w / 2:.9g} {h / 2:.9g} {board.thickness_m / 2:.9g}",
+        pos=" ".join(f"{v:.9g}" for v in T[:3, 3]),
+        quat=f"{qw:.12g} {x:.12g} {y:.12g} {z:.12g}",
+        material="mat_board",
+        contype="0",
+        conaffinity="0",
+        mass="0",
+    )
+
+
+def build_mjcf(
+    spec: RobotSpec, scene: Scene, poses: dict, camera: CameraConfig, dt: float, board: SimBoardConfig | None = None
+) -> str:
     root = ET.Element("mujoco", model=f"goalvla_{scene.name}")
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
     ET.SubElement(root, "option", timestep=f"{dt:g}", integrator="implicitfast", cone="elliptic", impratio="10")
@@ -101,18 +144,22 @@ def build_mjcf(spec: RobotSpec, scene: Scene, poses: dict, camera: CameraConfig,
         conaffinity="3",
         friction="0.8 0.01 0.001",
     )
-    T = look_at(np.array(camera.sim.position_m), np.array(camera.sim.look_at_m))
+    actuators = ET.Element("actuator")
+    add_robot(world, actuators, spec)
+    flange = world.find(f".//body[@name='{spec.flange_link}']")
+    flange_mounted = camera.sim.mount == "flange"
+    T = camera_mount_pose(camera)
     x_mj, y_mj = T[:3, 0], -T[:3, 1]  # MuJoCo cameras look along -z with y up
     ET.SubElement(
-        world,
+        flange if flange_mounted else world,
         "camera",
         name=CAMERA_NAME,
-        pos=" ".join(f"{v:.6g}" for v in T[:3, 3]),
+        pos=" ".join(f"{v:.9g}" for v in T[:3, 3]),
         xyaxes=" ".join(f"{v:.9g}" for v in (*x_mj, *y_mj)),
         fovy=f"{camera_fovy_deg(camera):.9g}",
     )
-    actuators = ET.Element("actuator")
-    add_robot(world, actuators, spec)
+    if board is not None:
+        add_board(flange if board.mount == "flange" else world, asset, board)
     for o in scene.objects:
         add_object(world, asset, o, poses[o.name])
     root.append(actuators)
@@ -131,11 +178,13 @@ class SimWorld:
         self.spec = spec or load_robot_spec()
         self.scene = load_scene(sim.scene_file)
         self.poses = place(self.scene, sim.seed)
-        self.xml = build_mjcf(self.spec, self.scene, self.poses, camera, sim.physics_dt_s)
+        self.xml = build_mjcf(self.spec, self.scene, self.poses, camera, sim.physics_dt_s, sim.board)
         self.model = mujoco.MjModel.from_xml_string(self.xml)
         self.data = mujoco.MjData(self.model)
         self.lock = threading.RLock()
-        self.T_world_camera = look_at(np.array(camera.sim.position_m), np.array(camera.sim.look_at_m))
+        # world-mounted camera: its fixed pose; flange-mounted (eye-in-hand): T_flange_camera, see camera_pose()
+        self.T_world_camera = camera_mount_pose(camera) if camera.sim.mount == "world" else None
+        self.T_flange_camera = camera_mount_pose(camera) if camera.sim.mount == "flange" else None
         m = self.model
         self.arm_qpos = np.array([m.jnt_qposadr[m.joint(n).id] for n in self.spec.joint_names])
         self.arm_dof = np.array([m.jnt_dofadr[m.joint(n).id] for n in self.spec.joint_names])
@@ -184,6 +233,17 @@ class SimWorld:
             T[:3, :3] = body.xmat.reshape(3, 3)
             T[:3, 3] = body.xpos
             return T
+
+    def camera_pose(self) -> np.ndarray:
+        """Ground-truth T_world_camera now (it moves with the flange when the camera is mounted there)."""
+        if self.T_flange_camera is None:
+            return self.T_world_camera.copy()
+        with self.lock:
+            body = self.data.body(self.spec.flange_link)
+            T_world_flange = np.eye(4)
+            T_world_flange[:3, :3] = body.xmat.reshape(3, 3)
+            T_world_flange[:3, 3] = body.xpos
+        return T_world_flange @ self.T_flange_camera
 
     def tcp_pose(self) -> np.ndarray:
         with self.lock:
