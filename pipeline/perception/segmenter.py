@@ -1,0 +1,59 @@
+"""Segmenter interface: find the instances a short phrase ("the red block") names in an RGB image.
+
+The reasoning loop needs every instance, not only the best one: zero instances means the target is missing from
+a generated goal, two means the editor duplicated it. Backends return all detections above their threshold.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+
+
+class SegmentationError(RuntimeError):
+    """The segmenter could not run on this input (bad image, unusable phrase); the message says which."""
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One instance: a full-resolution mask (H, W bool), a score in [0, 1], its box (u0, v0, u1, v1) in pixels."""
+
+    mask: np.ndarray
+    score: float
+    box: tuple[int, int, int, int]
+    label: str
+
+    @property
+    def area_px(self) -> int:
+        return int(self.mask.sum())
+
+    @property
+    def centroid_uv(self) -> tuple[float, float]:
+        v, u = np.nonzero(self.mask)
+        return float(u.mean()), float(v.mean())
+
+
+def box_of(mask: np.ndarray) -> tuple[int, int, int, int]:
+    v, u = np.nonzero(mask)
+    if u.size == 0:
+        raise SegmentationError("box_of: empty mask")
+    return int(u.min()), int(v.min()), int(u.max()), int(v.max())
+
+
+def check_rgb(rgb: np.ndarray, who: str) -> None:
+    """ValueError naming `who` unless `rgb` is an (H, W, 3) uint8 image."""
+    if not isinstance(rgb, np.ndarray) or rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
+        got = f"{rgb.dtype} {rgb.shape}" if isinstance(rgb, np.ndarray) else type(rgb).__name__
+        raise ValueError(f"{who}: expected an (H, W, 3) uint8 RGB image, got {got}")
+
+
+class Segmenter(ABC):
+    """Text-prompted instance segmentation."""
+
+    name: str = "segmenter"
+
+    @abstractmethod
+    def segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
+        """All instances of `phrase`, best first; an empty list when there is none."""

@@ -1,0 +1,1 @@
+"""Stage 1, goal state reasoning: instruction -> validated goal image, target masks and goal depth."""

@@ -1,0 +1,134 @@
+"""Cheap geometric checks on a candidate goal image, run before any reflector is asked.
+
+Image editors are known to change the framing (zoom, aspect, shift), drop or duplicate the target, and move
+things they were not asked to move. Each check returns readable problems with the numbers; a framing change
+can instead be undone by re-registering the candidate onto the initial image (background features + RANSAC).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pipeline.config import ChecksConfig
+from pipeline.perception.segmenter import Detection
+
+
+@dataclass(frozen=True)
+class Framing:
+    """Affine map initial -> candidate pixels estimated on the background, summarised for people."""
+
+    A: np.ndarray  # 2x3
+    max_corner_shift_px: float
+    scale_change: float  # max relative deviation of the two axis scales from 1
+    inliers: int
+
+
+def resize_to(rgb: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, list[str]]:
+    """Bring a candidate to the initial resolution; a changed aspect ratio is reported (then re-registered)."""
+    h, w = shape
+    notes = []
+    if rgb.shape[:2] != (h, w):
+        ch, cw = rgb.shape[:2]
+        if abs(cw / ch - w / h) > 0.01:
+            notes.append(f"aspect ratio changed: candidate {cw}x{ch}, initial {w}x{h}")
+        rgb = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA if cw > w else cv2.INTER_LINEAR)
+    return rgb, notes
+
+
+def grow(mask: np.ndarray, px: int) -> np.ndarray:
+    if px <= 0:
+        return mask.copy()
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * px + 1, 2 * px + 1))
+    return cv2.dilate(mask.astype(np.uint8), k).astype(bool)
+
+
+def estimate_framing(rgb_init: np.ndarray, rgb_cand: np.ndarray, background: np.ndarray) -> Framing | None:
+    """Affine initial -> candidate from ORB matches on background pixels; None if too few consistent matches."""
+    h, w = background.shape
+    g0 = cv2.cvtColor(rgb_init, cv2.COLOR_RGB2GRAY)
+    g1 = cv2.cvtColor(rgb_cand, cv2.COLOR_RGB2GRAY)
+    if np.abs(g0.astype(np.int16) - g1.astype(np.int16))[background].mean() < 2.0:
+        return Framing(np.array([[1.0, 0, 0], [0, 1.0, 0]]), 0.0, 0.0, int(background.sum()))
+    orb = cv2.ORB_create(nfeatures=2000, fastThreshold=10)
+    m = background.astype(np.uint8) * 255
+    k0, d0 = orb.detectAndCompute(g0, m)
+    k1, d1 = orb.detectAndCompute(g1, None)
+    if d0 is None or d1 is None or len(k0) < 8 or len(k1) < 8:
+        return None
+    matches = cv2.BFMatcher(cv2.NORM_HAMMING, crossCheck=True).match(d0, d1)
+    if len(matches) < 8:
+        return None
+    p0 = np.float32([k0[x.queryIdx].pt for x in matches])
+    p1 = np.float32([k1[x.trainIdx].pt for x in matches])
+    A, inl = cv2.estimateAffine2D(p0, p1, method=cv2.RANSAC, ransacReprojThreshold=2.0, maxIters=4000)
+    if A is None or int(inl.sum()) < 12:
+        return None
+    corners = np.array([[0, 0], [w - 1, 0], [0, h - 1], [w - 1, h - 1]], dtype=np.float64)
+    moved = corners @ A[:, :2].T + A[:, 2]
+    scale = max(abs(np.linalg.norm(A[:, 0]) - 1.0), abs(np.linalg.norm(A[:, 1]) - 1.0))
+    return Framing(A, float(np.abs(moved - corners).max()), float(scale), int(inl.sum()))
+
+
+def reregister(rgb_init: np.ndarray, rgb_cand: np.ndarray, framing: Framing) -> tuple[np.ndarray, float]:
+    """The candidate warped into the initial framing; pixels it does not cover keep the initial image.
+
+    Returns the image and the uncovered fraction.
+    """
+    h, w = rgb_init.shape[:2]
+    flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+    warped = cv2.warpAffine(rgb_cand, framing.A, (w, h), flags=flags, borderMode=cv2.BORDER_CONSTANT)
+    cover = cv2.warpAffine(np.full(rgb_cand.shape[:2], 255, np.uint8), framing.A, (w, h), flags=flags) > 127
+    out = np.where(cover[..., None], warped, rgb_init)
+    return out, float(1.0 - cover.mean())
+
+
+def framing_changed(f: Framing, cfg: ChecksConfig) -> bool:
+    return f.max_corner_shift_px > cfg.max_shift_px or f.scale_change > cfg.max_scale_change
+
+
+def describe_framing(f: Framing) -> str:
+    return f"framing changed: corners moved up to {f.max_corner_shift_px:.1f} px, zoom {100 * f.scale_change:.1f} %"
+
+
+def target_count_problems(detections: list[Detection], target: str) -> list[str]:
+    if not detections:
+        return [f"target '{target}' missing from the candidate"]
+    if len(detections) > 1:
+        areas = ", ".join(str(d.area_px) for d in detections)
+        return [f"target '{target}' appears {len(detections)} times in the candidate (areas {areas} px)"]
+    return []
+
+
+def background_problems(
+    rgb_init: np.ndarray, rgb_goal: np.ndarray, exclude: np.ndarray, cfg: ChecksConfig
+) -> list[str]:
+    """Regions outside the target masks whose colour changed: other objects moved, appeared or vanished."""
+    a = cv2.GaussianBlur(rgb_init, (5, 5), 0).astype(np.int16)
+    b = cv2.GaussianBlur(rgb_goal, (5, 5), 0).astype(np.int16)
+    changed = (np.abs(a - b).max(axis=2) > cfg.pixel_change_threshold) & ~exclude
+    changed = cv2.morphologyEx(changed.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    n, _, stats, centroids = cv2.connectedComponentsWithStats(changed, connectivity=8)
+    limit = cfg.max_changed_blob_frac * changed.size
+    out = []
+    for i in np.argsort(-stats[1:n, cv2.CC_STAT_AREA])[:3] + 1:
+        if stats[i, cv2.CC_STAT_AREA] > limit:
+            u, v = centroids[i]
+            out.append(
+                f"background changed outside the target: {stats[i, cv2.CC_STAT_AREA]} px around (u={u:.0f}, "
+                f"v={v:.0f}) (limit {limit:.0f} px): another object moved, appeared or vanished"
+            )
+    return out
+
+
+def target_motion_problems(
+    rgb_init: np.ndarray, rgb_goal: np.ndarray, mask_init: np.ndarray, mask_goal: np.ndarray, cfg: ChecksConfig
+) -> list[str]:
+    """The target must look different: same silhouette and same pixels means the editor changed nothing."""
+    iou = (mask_init & mask_goal).sum() / max((mask_init | mask_goal).sum(), 1)
+    diff = np.abs(rgb_init.astype(np.int16) - rgb_goal.astype(np.int16)).max(axis=2)[mask_init | mask_goal]
+    if iou > cfg.max_target_iou and (diff.size == 0 or diff.mean() < 10):
+        return [f"target did not change (mask overlap {iou:.2f}, mean colour change {diff.mean():.1f})"]
+    return []

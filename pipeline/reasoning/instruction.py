@@ -1,0 +1,140 @@
+"""The offline instruction grammar: what the default profile understands without a language model.
+
+    place|put|move X (in|into|on|onto|on top of|next to|beside|left of|right of|behind|in front of) Y
+    rotate|turn X [by] N (degrees|deg) [clockwise|counterclockwise|anticlockwise]
+    stand X up | stand up X
+    push X [left|right|forward|backward|away|toward the camera] [by N (cm|mm|m)]
+    close X
+
+X and Y are object phrases made of colour and shape words ("the red block", "the pan"); "to the left of" and
+"to the right of" are accepted too. Directions are as seen from the camera, on the table plane: left/right along
+the image, behind = farther from the camera, in front = nearer. Rotation is counterclockwise seen from above
+unless "clockwise" is given. A sentence outside the grammar is an error that quotes the grammar.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Literal
+
+from pipeline.perception.offline_segmenter import SHAPE_WORDS, parse_phrase
+from pipeline.perception.segmenter import SegmentationError
+
+Action = Literal["place", "rotate", "stand_up", "push", "close"]
+RELATIONS: dict[str, str] = {
+    "on top of": "on",
+    "into": "in",
+    "in front of": "in_front_of",
+    "to the left of": "left_of",
+    "to the right of": "right_of",
+    "left of": "left_of",
+    "right of": "right_of",
+    "next to": "next_to",
+    "beside": "next_to",
+    "behind": "behind",
+    "onto": "on",
+    "on": "on",
+    "in": "in",
+}
+PUSH_DIRECTIONS: dict[str, str] = {
+    "left": "left",
+    "right": "right",
+    "forward": "away",
+    "forwards": "away",
+    "away": "away",
+    "backward": "toward",
+    "backwards": "toward",
+    "back": "toward",
+    "toward the camera": "toward",
+    "towards the camera": "toward",
+}
+UNITS_M = {"cm": 0.01, "mm": 0.001, "m": 1.0}
+GRAMMAR = __doc__.split("\n\n")[1].strip("\n")
+
+
+class InstructionError(ValueError):
+    """The sentence is outside the offline grammar; the message quotes the grammar."""
+
+
+@dataclass(frozen=True)
+class Instruction:
+    action: Action
+    target: str  # object phrase X, normalised ("red block")
+    relation: str | None = None  # place: on, in, next_to, left_of, right_of, behind, in_front_of
+    reference: str | None = None  # place: object phrase Y
+    angle_deg: float | None = None  # rotate: counterclockwise seen from above
+    direction: str | None = None  # push: left, right, away, toward
+    distance_m: float | None = None  # push
+
+    def canonical(self) -> str:
+        """The instruction re-written in the grammar (used as the offline editing prompt)."""
+        if self.action == "place":
+            return f"put the {self.target} {self.relation.replace('_', ' ')} the {self.reference}"
+        if self.action == "rotate":
+            return f"rotate the {self.target} by {self.angle_deg:g} degrees"
+        if self.action == "stand_up":
+            return f"stand the {self.target} up"
+        if self.action == "push":
+            direction = {"away": "forward", "toward": "backward"}.get(self.direction, self.direction)
+            return f"push the {self.target} {direction} by {self.distance_m * 100:g} cm"
+        return f"close the {self.target}"
+
+
+def _phrase(text: str, sentence: str) -> str:
+    try:
+        p = parse_phrase(text)
+    except SegmentationError as e:
+        raise InstructionError(f"{sentence!r}: {e}\n{GRAMMAR}") from None
+    return " ".join(w for w in (p.colour, _shape_word(text)) if w)
+
+
+def _shape_word(text: str) -> str | None:
+    return next((w for w in re.findall(r"[a-z]+", text) if w in SHAPE_WORDS), None)
+
+
+_REL = "|".join(re.escape(r) for r in sorted(RELATIONS, key=len, reverse=True))
+_DIR = "|".join(re.escape(d) for d in sorted(PUSH_DIRECTIONS, key=len, reverse=True))
+PATTERNS: tuple[tuple[str, re.Pattern[str]], ...] = (
+    ("place", re.compile(rf"^(?:place|put|move) (?P<x>.+?) (?P<rel>{_REL}) (?P<y>.+)$")),
+    (
+        "rotate",
+        re.compile(
+            r"^(?:rotate|turn) (?P<x>.+?) (?:by )?(?P<n>-?\d+(?:\.\d+)?) ?(?:degrees|degree|deg|°)"
+            r"(?: (?P<sense>clockwise|counterclockwise|anticlockwise|counter-clockwise))?$"
+        ),
+    ),
+    ("stand_up", re.compile(r"^stand (?:up (?P<x1>.+)|(?P<x2>.+?) up)$")),
+    (
+        "push",
+        re.compile(
+            rf"^push (?P<x>.+?)(?: (?:to the )?(?P<dir>{_DIR}))?(?: by (?P<n>\d+(?:\.\d+)?) ?(?P<unit>cm|mm|m))?$"
+        ),
+    ),
+    ("close", re.compile(r"^close (?P<x>.+)$")),
+)
+
+
+def parse_instruction(sentence: str, default_push_m: float = 0.10) -> Instruction:
+    """Parse one sentence of the offline grammar (case and a final full stop do not matter)."""
+    text = " ".join(sentence.lower().strip().rstrip(".!").split())
+    for action, pattern in PATTERNS:
+        m = pattern.match(text)
+        if m is None:
+            continue
+        g = m.groupdict()
+        if action == "place":
+            return Instruction("place", _phrase(g["x"], sentence), RELATIONS[g["rel"]], _phrase(g["y"], sentence))
+        if action == "rotate":
+            angle = float(g["n"]) * (-1.0 if g["sense"] == "clockwise" else 1.0)
+            return Instruction("rotate", _phrase(g["x"], sentence), angle_deg=angle)
+        if action == "stand_up":
+            return Instruction("stand_up", _phrase(g["x1"] or g["x2"], sentence))
+        if action == "push":
+            dist = float(g["n"]) * UNITS_M[g["unit"]] if g["n"] else default_push_m
+            if not 0.0 < dist <= 0.5:
+                raise InstructionError(f"{sentence!r}: push distance {dist:.3f} m outside (0, 0.5] m")
+            direction = PUSH_DIRECTIONS[g["dir"]] if g["dir"] else "away"
+            return Instruction("push", _phrase(g["x"], sentence), direction=direction, distance_m=dist)
+        return Instruction("close", _phrase(g["x"], sentence))
+    raise InstructionError(f"{sentence!r} is not in the offline instruction grammar:\n{GRAMMAR}")

@@ -1,0 +1,190 @@
+"""Offline image editor: composes the goal image from the current RGB-D view for an instruction in the grammar.
+
+The target's pixels are lifted to 3D with the measured depth and intrinsics, moved rigidly to where the
+instruction puts them (found from the segmented reference object and the table plane), projected back with a
+z-buffer (correct perspective scale and occlusion) and splatted; the vacated region is inpainted (cv2.inpaint).
+The goal's depth is composed the same way and handed over as normalised disparity (like a relative monocular
+model), together with the applied rigid motion, which is the ground truth a benchmark compares grounding to.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from scipy.ndimage import distance_transform_edt
+
+from drivers.types import CameraIntrinsics
+from pipeline.perception.depth import OfflineDepthEstimator, RelativeDepth
+from pipeline.perception.segmenter import SegmentationError, Segmenter
+from pipeline.reasoning.checks import grow
+from pipeline.reasoning.instruction import Instruction, InstructionError, parse_instruction
+from pipeline.reasoning.interfaces import ImageEditor
+from pipeline.reasoning.providers import ProviderError
+from pipeline.reasoning.tabletop import (
+    Footprint,
+    GeometryError,
+    Plane,
+    axis_rotation,
+    fit_table_plane,
+    footprint,
+    object_points,
+    principal_axis,
+    support_height,
+)
+from pipeline.reasoning.types import EditRequest, EditResult
+
+PLACE_GAP_M = 0.04  # free space between objects placed side by side
+MIN_VISIBLE_FRACTION = 0.3
+
+
+def _refuse(message: str) -> ProviderError:
+    return ProviderError("refused", f"offline editor: {message}", raw=message)
+
+
+def _single(segmenter: Segmenter, rgb: np.ndarray, phrase: str) -> np.ndarray:
+    try:
+        found = segmenter.segment(rgb, phrase)
+    except SegmentationError as e:
+        raise _refuse(str(e)) from None
+    if len(found) != 1:
+        raise _refuse(f"'{phrase}' matches {len(found)} objects in the current image (needs exactly one)")
+    return found[0].mask
+
+
+class OfflineEditor(ImageEditor):
+    name = "offline"
+
+    def __init__(self, segmenter: Segmenter, depth_registry: OfflineDepthEstimator | None = None) -> None:
+        self.segmenter = segmenter
+        self.depth_registry = depth_registry
+
+    def edit(self, request: EditRequest) -> EditResult:
+        if request.depth_m is None or request.intrinsics is None:
+            raise _refuse("needs the current depth frame and intrinsics")
+        try:
+            instr = parse_instruction(request.prompt)
+        except InstructionError as e:
+            raise _refuse(str(e)) from None
+        try:
+            rgb, depth_m, T = self._compose(request.rgb, request.depth_m, request.intrinsics, instr)
+        except GeometryError as e:
+            raise _refuse(str(e)) from None
+        disparity = 1.0 / depth_m
+        lo, hi = float(np.nanmin(disparity)), float(np.nanmax(disparity))
+        rel = RelativeDepth(((disparity - lo) / max(hi - lo, 1e-9)).astype(np.float32), "disparity")
+        if self.depth_registry is not None:
+            self.depth_registry.remember(rgb, rel)
+        return EditResult(rgb, raw=f"composed: {instr.canonical()}", relative_depth=rel, T_goal_init_camera=T)
+
+    def _compose(
+        self, rgb: np.ndarray, depth_m: np.ndarray, K: CameraIntrinsics, instr: Instruction
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if instr.action == "close":
+            raise _refuse("'close' moves an articulated part; composing it needs a generative editor")
+        mask_x = _single(self.segmenter, rgb, instr.target)
+        cloud = K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3)
+        plane = fit_table_plane(cloud)
+        px, _ = object_points(depth_m, K, mask_x)
+        fx = footprint(px, plane)
+        fy = None
+        if instr.reference is not None:
+            py, _ = object_points(depth_m, K, _single(self.segmenter, rgb, instr.reference))
+            fy = footprint(py, plane)
+        R, pivot, t = self._motion(instr, plane, fx, fy)
+        T = np.eye(4)
+        T[:3, :3] = R
+        T[:3, 3] = pivot - R @ pivot + t
+        goal_rgb, goal_depth = _render(rgb, depth_m, K, plane, mask_x, px, T)
+        return goal_rgb, goal_depth, T
+
+    @staticmethod
+    def _motion(
+        instr: Instruction, plane: Plane, fx: Footprint, fy: Footprint | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rotation, pivot and translation (camera frame) that carry out the instruction."""
+        right = plane.in_plane(np.array([1.0, 0.0, 0.0]))
+        away = plane.in_plane(np.array([0.0, 0.0, 1.0]))
+        eye, zero = np.eye(3), np.zeros(3)
+        bottom = max(float(np.percentile(fx.heights, 2)), 0.0)
+        if instr.action == "place":
+            if instr.relation in ("on", "in"):
+                lift = support_height(fy, plane) - bottom + 0.002
+                return eye, zero, fy.centre - fx.centre + lift * plane.n
+            side = {
+                "left_of": -right,
+                "right_of": right,
+                "behind": away,
+                "in_front_of": -away,
+            }.get(instr.relation)
+            if side is None:  # next to: stay on the side the object is already on
+                offset = fx.centre - fy.centre
+                side = plane.in_plane(offset) if np.linalg.norm(offset) > 1e-3 else right
+            goal = fy.centre + side * (fx.radius_m + fy.radius_m + PLACE_GAP_M)
+            return eye, zero, goal - fx.centre
+        if instr.action == "rotate":
+            return axis_rotation(plane.n, math.radians(instr.angle_deg)), fx.centre, zero
+        if instr.action == "push":
+            direction = {"left": -right, "right": right, "away": away, "toward": -away}[instr.direction]
+            return eye, zero, direction * instr.distance_m
+        # stand up: turn the long axis vertical, keeping the visible side facing the camera
+        tilt_axis = np.cross(plane.n, principal_axis(fx, plane))
+        pivot = fx.points.mean(axis=0)
+        R = axis_rotation(tilt_axis, math.pi / 2)
+        if (R @ plane.n) @ -pivot < 0:
+            R = axis_rotation(tilt_axis, -math.pi / 2)
+        lowest = plane.height((fx.points - pivot) @ R.T + pivot).min()
+        return R, pivot, -lowest * plane.n
+
+
+def _render(
+    rgb: np.ndarray,
+    depth_m: np.ndarray,
+    K: CameraIntrinsics,
+    plane: Plane,
+    mask_x: np.ndarray,
+    points: np.ndarray,
+    T: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Goal RGB and metric depth: inpaint where the object was, then z-buffer splat it at its new pose."""
+    h, w = mask_x.shape
+    vacated = grow(mask_x, 3)
+    goal = cv2.inpaint(rgb, vacated.astype(np.uint8) * 255, 5, cv2.INPAINT_TELEA)
+    depth = depth_m.astype(np.float64).copy()
+    vv, vu = np.nonzero(vacated)
+    depth[vv, vu] = plane.ray_depth(K, np.stack([vu, vv], axis=1).astype(np.float64))
+    invalid = ~np.isfinite(depth)
+    if invalid.any():
+        _, (iv, iu) = distance_transform_edt(invalid, return_indices=True)
+        depth = depth[iv, iu]
+
+    moved = points @ T[:3, :3].T + T[:3, 3]
+    colours = rgb[mask_x]
+    front = moved[:, 2] > 1e-3
+    uv = np.full((len(moved), 2), -1.0)
+    uv[front] = K.project(moved[front])
+    u, v = np.round(uv[:, 0]).astype(int), np.round(uv[:, 1]).astype(int)
+    inside = front & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+    if inside.sum() < MIN_VISIBLE_FRACTION * len(moved):
+        raise GeometryError(f"the goal pose leaves the camera view ({inside.sum()} of {len(moved)} pixels in view)")
+    u, v, z, colours = u[inside], v[inside], moved[inside, 2], colours[inside]
+    order = np.lexsort((z, v * w + u))  # nearest point first within each pixel
+    flat = (v * w + u)[order]
+    first = np.r_[True, flat[1:] != flat[:-1]]
+    keep = order[first]
+    u, v, z, colours = u[keep], v[keep], z[keep], colours[keep]
+    seen = z < depth[v, u] + 0.003  # scene surfaces nearer than the moved object occlude it
+    splat = np.zeros((h, w), bool)
+    splat[v[seen], u[seen]] = True
+    zbuf = np.zeros((h, w))
+    zbuf[v[seen], u[seen]] = z[seen]
+    cbuf = np.zeros_like(rgb)
+    cbuf[v[seen], u[seen]] = colours[seen]
+    scale = float(np.median(points[inside][keep][:, 2] / z))
+    k = 2 * math.ceil(max(scale, 1.0)) + 1
+    closed = cv2.morphologyEx(splat.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8)).astype(bool)
+    _, (iv, iu) = distance_transform_edt(~splat, return_indices=True)  # holes take the nearest splatted pixel
+    goal[closed] = cbuf[iv, iu][closed]
+    depth[closed] = np.minimum(zbuf[iv, iu][closed], depth[closed])
+    return goal, depth.astype(np.float32)

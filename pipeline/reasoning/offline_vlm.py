@@ -1,0 +1,74 @@
+"""Offline text VLM: enhancement = parsing into the grammar; reflection = checking the relation in the goal image.
+
+The enhancer rewrites the instruction canonically (the offline editor reads the same grammar) and names the
+target and reference phrases. The reflector segments the reference object in the candidate and checks, in image
+space, that the segmented goal object stands in the requested relation to it; motions without a reference
+(rotate, push, stand up) pass when the geometric checks already saw the target change.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter
+from pipeline.reasoning.instruction import InstructionError, parse_instruction
+from pipeline.reasoning.interfaces import TextVLM
+from pipeline.reasoning.providers import ProviderError
+from pipeline.reasoning.types import Enhancement, ReflectionRequest, Verdict
+
+
+class OfflineVLM(TextVLM):
+    name = "offline"
+
+    def __init__(self, segmenter: Segmenter) -> None:
+        self.segmenter = segmenter
+
+    def enhance(self, rgb: np.ndarray, instruction: str) -> Enhancement:
+        try:
+            instr = parse_instruction(instruction)
+        except InstructionError as e:
+            raise ProviderError("refused", str(e), raw=str(e)) from None
+        prompt = instr.canonical()
+        return Enhancement(prompt, instr.target, instr.reference, raw=prompt)
+
+    def correct(self, prompt: str, problems: list[str]) -> str:
+        return prompt  # the offline editor is deterministic: rewording cannot help, and it must stay in the grammar
+
+    def reflect(self, request: ReflectionRequest) -> Verdict:
+        instr = parse_instruction(request.prompt)
+        if instr.action != "place":
+            return Verdict(True, (f"{instr.target} changed as asked ({instr.action}); no relation to check",))
+        try:
+            found = self.segmenter.segment(request.rgb_goal, instr.reference)
+        except SegmentationError as e:
+            return Verdict(False, (f"reference '{instr.reference}' not segmentable in the candidate: {e}",))
+        if len(found) != 1:
+            reason = f"reference '{instr.reference}' found {len(found)} times in the candidate (needs exactly one)"
+            return Verdict(False, (reason,))
+        ok, reason = relation_holds(request.mask_goal, found[0], instr.relation, instr.target, instr.reference)
+        return Verdict(ok, (reason,), None if ok else request.prompt, raw=reason)
+
+
+def relation_holds(mask: np.ndarray, ref: Detection, relation: str, target: str, reference: str) -> tuple[bool, str]:
+    """Image-space test of a spatial relation between the goal object mask and the reference detection."""
+    v, u = np.nonzero(mask)
+    uc, bottom = float(u.mean()), float(np.percentile(v, 95))
+    u0, v0, u1, v1 = ref.box
+    ruc, rvc = ref.centroid_uv
+    where = f"{target} centre u={uc:.0f}, bottom v={bottom:.0f}; {reference} box u {u0}..{u1}, v {v0}..{v1}"
+    if relation in ("on", "in"):
+        ok = u0 <= uc <= u1 and v0 <= bottom <= v1 + 3
+    elif relation == "left_of":
+        ok = uc < u0
+    elif relation == "right_of":
+        ok = uc > u1
+    elif relation == "behind":
+        ok = bottom < rvc
+    elif relation == "in_front_of":
+        ok = bottom > v1
+    else:  # next to: apart, and no farther than two object sizes
+        overlap = (mask & ref.mask).any()
+        gap = max(abs(uc - ruc) - (u1 - u0) / 2 - np.ptp(u) / 2, abs(float(v.mean()) - rvc) - (v1 - v0) / 2, 0.0)
+        ok = bool(not overlap and gap < 2.0 * max(u1 - u0, v1 - v0, np.ptp(u)))
+    verb = "holds" if ok else "does not hold"
+    return ok, f"'{relation.replace('_', ' ')}' {verb}: {where}"

@@ -1,0 +1,255 @@
+"""Stage 1 of Goal-VLA: prompt enhancement, then Reflection-through-Synthesis until a goal is validated.
+
+Each iteration: edit the initial image with the current prompt; bring the candidate to the initial resolution;
+segment the target in it; run the cheap geometric checks (framing, missing/duplicated target, other objects
+moved, target unchanged), re-registering a changed framing when allowed; overlay the segmented goal object at
+`overlay_alpha` on the initial image (the synthesis); ask the reflector for a structured verdict. Checks that
+fail stand in for the verdict (no reflector call). If no candidate validates the run fails with every reason;
+only the operator's explicit `allow_unvalidated` override lets the last usable candidate through.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from drivers.types import RGBDFrame
+from pipeline.config import PipelineConfig
+from pipeline.perception.depth import DepthEstimationError, DepthEstimator
+from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter
+from pipeline.reasoning import checks
+from pipeline.reasoning.interfaces import ImageEditor, TextVLM
+from pipeline.reasoning.providers import ProviderError
+from pipeline.reasoning.record import Recorder
+from pipeline.reasoning.types import (
+    EditRequest,
+    EditResult,
+    GoalState,
+    Iteration,
+    ReasoningError,
+    ReflectionRequest,
+    Verdict,
+)
+
+log = logging.getLogger(__name__)
+
+
+def synthesize(rgb_init: np.ndarray, rgb_goal: np.ndarray, mask_goal: np.ndarray, alpha: float) -> np.ndarray:
+    """The 'virtual image': the goal object blended at opacity `alpha` into the initial scene."""
+    out = rgb_init.astype(np.float32)
+    out[mask_goal] = alpha * rgb_goal[mask_goal].astype(np.float32) + (1.0 - alpha) * out[mask_goal]
+    return np.clip(np.round(out), 0, 255).astype(np.uint8)
+
+
+@dataclass
+class _Candidate:
+    rgb: np.ndarray
+    mask: np.ndarray
+    result: EditResult
+    iteration: Iteration
+
+
+class Reasoner:
+    def __init__(
+        self,
+        editor: ImageEditor,
+        vlm: TextVLM,
+        segmenter: Segmenter,
+        depth: DepthEstimator,
+        config: PipelineConfig | None = None,
+    ) -> None:
+        self.editor, self.vlm, self.segmenter, self.depth = editor, vlm, segmenter, depth
+        self.config = config or PipelineConfig()
+
+    def run(
+        self,
+        frame: RGBDFrame,
+        instruction: str,
+        record_dir: str | None = None,
+        allow_unvalidated: bool | None = None,
+    ) -> GoalState:
+        cfg = self.config
+        allow = cfg.allow_unvalidated_goal if allow_unvalidated is None else allow_unvalidated
+        rec = Recorder(record_dir)
+        rgb = frame.rgb
+        seconds: dict[str, float] = {}
+        rec.image("initial.png", rgb)
+        rec.text("instruction.txt", instruction)
+
+        t0 = time.perf_counter()
+        try:
+            enh = self.vlm.enhance(rgb, instruction)
+        except ProviderError as e:
+            rec.json("enhancement_failure.json", {"kind": e.kind, "error": str(e), "raw": e.raw})
+            raise ReasoningError(f"prompt enhancement failed: {e}", [str(e)]) from e
+        seconds["enhance"] = time.perf_counter() - t0
+        rec.json("enhancement.json", {"prompt": enh.prompt, "target": enh.target, "reference": enh.reference})
+        rec.text("enhancement_raw.txt", enh.raw)
+
+        t0 = time.perf_counter()
+        initial = self._segment(rgb, enh.target)
+        seconds["segment"] = time.perf_counter() - t0
+        if len(initial) != 1:
+            reason = f"target '{enh.target}' matches {len(initial)} objects in the initial image (needs exactly one)"
+            raise ReasoningError(reason, [reason])
+        mask_init = initial[0].mask
+        rec.image("mask_init.png", mask_init)
+
+        prompt, accepted, usable = enh.prompt, None, None
+        iterations: list[Iteration] = []
+        for index in range(1, cfg.reflection_iterations + 1):
+            it = Iteration(index, prompt)
+            iterations.append(it)
+            candidate = self._iterate(frame, instruction, enh, mask_init, it, rec, seconds)
+            rec.json("iteration.json", it, index)
+            if candidate is not None:
+                usable = candidate
+                if it.verdict is not None and it.verdict.valid:
+                    accepted = candidate
+                    break
+            if it.verdict is not None and it.verdict.revised_prompt:
+                prompt = it.verdict.revised_prompt
+            if it.failure_kind in ("auth", "client"):
+                break  # no later iteration can fix a bad key or model name
+
+        reasons = [f"iteration {it.index}: {r}" for it in iterations for r in _reasons(it)]
+        if accepted is None:
+            if not (allow and usable is not None):
+                rec.json("reasoning.json", {"ok": False, "reasons": reasons, "seconds": seconds})
+                raise ReasoningError(
+                    f"no validated goal after {len(iterations)} iteration(s):\n  " + "\n  ".join(reasons), reasons
+                )
+            log.warning("operator override: using an unvalidated goal (iteration %d)", usable.iteration.index)
+            accepted = usable
+
+        t0 = time.perf_counter()
+        depth_goal = accepted.result.relative_depth
+        if depth_goal is None or accepted.iteration.registered:
+            try:
+                depth_goal = self.depth.estimate(accepted.rgb)
+            except DepthEstimationError as e:
+                raise ReasoningError(f"goal depth: {e}", [str(e)]) from e
+        seconds["depth"] = time.perf_counter() - t0
+
+        goal = GoalState(
+            instruction=instruction,
+            prompt=accepted.iteration.prompt,
+            target=enh.target,
+            rgb_init=rgb,
+            rgb_goal=accepted.rgb,
+            mask_init=mask_init,
+            mask_goal=accepted.mask,
+            depth_goal=depth_goal,
+            iterations=tuple(iterations),
+            validated=accepted.iteration.verdict is not None and accepted.iteration.verdict.valid,
+            T_goal_init_camera=accepted.result.T_goal_init_camera,
+            seconds=seconds,
+        )
+        rec.image("goal.png", goal.rgb_goal)
+        rec.image("mask_goal.png", goal.mask_goal)
+        rec.array("goal_depth.npy", depth_goal.values)
+        rec.json(
+            "reasoning.json",
+            {
+                "ok": True,
+                "validated": goal.validated,
+                "override": not goal.validated,
+                "accepted_iteration": accepted.iteration.index,
+                "prompt": goal.prompt,
+                "target": goal.target,
+                "depth_kind": depth_goal.kind,
+                "reasons": reasons,
+                "seconds": seconds,
+            },
+        )
+        return goal
+
+    def _segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
+        try:
+            return self.segmenter.segment(rgb, phrase)
+        except SegmentationError as e:
+            raise ReasoningError(f"segmentation of '{phrase}' failed: {e}", [str(e)]) from e
+
+    def _iterate(self, frame, instruction, enh, mask_init, it: Iteration, rec: Recorder, seconds) -> _Candidate | None:
+        """One generate -> check -> synthesize -> reflect pass; fills `it`, returns a usable candidate or None."""
+        cfg, rgb, i = self.config.checks, frame.rgb, it.index
+        rec.text("prompt.txt", it.prompt, i)
+
+        def lap(stage: str, t0: float) -> None:
+            it.seconds[stage] = it.seconds.get(stage, 0.0) + time.perf_counter() - t0
+            seconds[stage] = seconds.get(stage, 0.0) + time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        try:
+            result = self.editor.edit(EditRequest(rgb, it.prompt, frame.depth, frame.intrinsics))
+        except ProviderError as e:
+            lap("edit", t0)
+            it.failure, it.failure_kind = str(e), e.kind
+            rec.text("edit_raw.txt", e.raw, i)
+            return None
+        lap("edit", t0)
+        rec.text("edit_raw.txt", result.raw, i)
+        rec.image("candidate_raw.png", result.rgb, i)
+
+        t0 = time.perf_counter()
+        cand, problems = checks.resize_to(result.rgb, rgb.shape[:2])
+        found = self._segment(cand, enh.target)
+        lap("segment", t0)
+        t0 = time.perf_counter()
+        others = np.any([d.mask for d in found], axis=0) if found else np.zeros_like(mask_init)
+        framing = checks.estimate_framing(rgb, cand, ~checks.grow(mask_init | others, cfg.mask_margin_px))
+        if framing is None:
+            problems.append("framing could not be verified: too few consistent background features")
+        elif checks.framing_changed(framing, cfg):
+            note = checks.describe_framing(framing)
+            if cfg.framing == "refuse" or framing.scale_change > cfg.max_reregister_scale_change:
+                problems.append(note)
+            else:
+                cand, uncovered = checks.reregister(rgb, cand, framing)
+                it.registered = True
+                it.checks.append(f"{note}; re-registered ({100 * uncovered:.1f} % of the view uncovered)")
+                found = self._segment(cand, enh.target)
+        problems += checks.target_count_problems(found, enh.target)
+        mask_goal = found[0].mask if len(found) == 1 else None
+        if mask_goal is not None:
+            exclude = checks.grow(mask_init | mask_goal, cfg.mask_margin_px)
+            problems += checks.background_problems(rgb, cand, exclude, cfg)
+            problems += checks.target_motion_problems(rgb, cand, mask_init, mask_goal, cfg)
+        it.checks.extend(problems)
+        lap("checks", t0)
+        rec.image("candidate.png", cand, i)
+        if mask_goal is None:
+            it.verdict = Verdict(False, tuple(problems), self.vlm.correct(it.prompt, problems), source="checks")
+            rec.json("verdict.json", it.verdict, i)
+            return None
+
+        overlay = synthesize(rgb, cand, mask_goal, self.config.overlay_alpha)
+        rec.image("mask_goal.png", mask_goal, i)
+        rec.image("overlay.png", overlay, i)
+        if problems:
+            it.verdict = Verdict(False, tuple(problems), self.vlm.correct(it.prompt, problems), source="checks")
+        else:
+            t0 = time.perf_counter()
+            request = ReflectionRequest(
+                instruction, it.prompt, overlay, rgb, cand, mask_init, mask_goal, enh.target, enh.reference
+            )
+            try:
+                it.verdict = self.vlm.reflect(request)
+            except ProviderError as e:
+                it.failure, it.failure_kind = f"reflector: {e}", e.kind
+                rec.text("reflect_raw.txt", e.raw, i)
+            lap("reflect", t0)
+        if it.verdict is not None:
+            rec.json("verdict.json", it.verdict, i)
+        return _Candidate(cand, mask_goal, result, it)
+
+
+def _reasons(it: Iteration) -> list[str]:
+    if it.failure is not None:
+        return [it.failure]
+    if it.verdict is not None and not it.verdict.valid:
+        return list(it.verdict.reasons) or ["reflector said invalid without reasons"]
+    return []
