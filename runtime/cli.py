@@ -63,5 +63,25 @@ def demo(
     run_demo(profile, out)
 
 
+@app.command("check-trajectory")
+def check_trajectory(
+    trajectory: Annotated[Path, typer.Option("--trajectory", "-t", help="TRAJ.json: joint_names, dt, positions")],
+    config: ConfigOption = DEFAULT_CONFIG,
+    world: Annotated[Path | None, typer.Option("--world", "-w", help="WORLD.json: boxes, spheres, ...")] = None,
+) -> None:
+    """The safety gate alone: print a JSON report; exit 0 valid, 3 violations, 2 unusable input."""
+    import json
+
+    from safety.check_files import InputError, check_files
+
+    profile = _load(config)
+    try:
+        report = check_files(profile.safety, trajectory, world)
+    except InputError as e:
+        _fail(str(e))
+    typer.echo(json.dumps(report.to_dict(), indent=2))
+    raise typer.Exit(0 if report.ok else 3)
+
+
 if __name__ == "__main__":
     app()
