@@ -1,0 +1,46 @@
+"""Prompts and reply handling for the cloud text VLMs (enhancement, reflection), shared by Gemini and OpenAI."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from pipeline.reasoning.providers import VerdictReply, json_schema, parse_reply
+from pipeline.reasoning.types import ReflectionRequest, Verdict
+
+ENHANCE = """You prepare an image-editing request for a robot. The image shows a table-top scene seen by the robot's
+fixed camera. The operator's instruction is:
+
+    {instruction}
+
+Write `edit_prompt`: one precise instruction for an image-editing model that shows the scene AFTER the instruction
+is carried out. Name the object that moves by its colour, shape and position, say exactly where and how it ends up
+(position relative to other named objects, orientation, resting on which surface), and require that the camera
+viewpoint, zoom, framing, lighting, background, the robot and every other object stay exactly as in the input
+image, that the moved object keeps its size, shape and colour, and that it appears exactly once.
+Write `target_object`: a short noun phrase (two to four words, e.g. "red block") naming the object that moves,
+suitable for an open-vocabulary detector. Write `reference_object`: the same for the object it is placed relative
+to, or an empty string if there is none. Answer with JSON only."""
+
+REFLECT = """You check a candidate goal for a robot. The operator's instruction is:
+
+    {instruction}
+
+The image-editing model was asked: {prompt}
+
+The image shows the ORIGINAL scene with the edited result of the moved object ({target}) blended in
+semi-transparently where the editor put it. Decide whether the blended object's position and orientation carry out
+the instruction physically plausibly: it rests on a support, does not intersect other objects, has its original
+size and appearance, and stands in the requested relation to the other objects.
+Answer with JSON only: `valid` (true or false), `reasons` (short sentences, what is right or wrong) and
+`revised_prompt` (when invalid: a corrected editing prompt that fixes what was wrong; when valid: an empty string)."""
+
+
+def reflect_with(ask: Callable[[str, np.ndarray, dict, str], str], request: ReflectionRequest, what: str) -> Verdict:
+    """Reflection through any JSON-answering VLM call: prompt, overlay image, strict verdict schema."""
+    text = REFLECT.format(instruction=request.instruction, prompt=request.prompt, target=request.target)
+    raw = ask(text, request.overlay, json_schema(VerdictReply), what)
+    reply = parse_reply(raw, VerdictReply, what)
+    revised = reply.revised_prompt.strip() or None
+    return Verdict(reply.valid, tuple(reply.reasons), None if reply.valid else revised, raw=raw)
