@@ -57,7 +57,8 @@ class CollisionWorld:
         self._held = held
         self._table = table
         self._qf = self.robot.full_q(self.robot.home_q)
-        self._finger_idx = self.robot._finger_idx
+        self._finger_idx = self.robot.finger_q_indices
+        self._half_gap = 0.0
         self.set_gripper_width(self.robot.spec.gripper.max_width_m if gripper_width_m is None else gripper_width_m)
         self._rebuild()
 
@@ -111,11 +112,16 @@ class CollisionWorld:
 
     @property
     def gripper_width_m(self) -> float:
-        return float(2 * self._qf[self._finger_idx[0]])
+        """The current finger gap [m], used by queries that give none."""
+        return 2 * self._half_gap
 
     def set_gripper_width(self, width_m: float) -> None:
+        """Record the gripper's present opening (from its state); clamped to the stroke."""
+        self._half_gap = self._half(width_m)
+
+    def _half(self, width_m: float) -> float:
         g = self.robot.spec.gripper
-        self._qf[self._finger_idx] = float(np.clip(width_m, g.min_width_m, g.max_width_m)) / 2
+        return float(np.clip(width_m, g.min_width_m, g.max_width_m)) / 2
 
     def set_obstacles(self, obstacles: list[Primitive]) -> None:
         self._obstacles = list(obstacles)
@@ -148,14 +154,14 @@ class CollisionWorld:
 
     # ---- queries -----------------------------------------------------------------------------------------------
     def _full(self, q: np.ndarray, gripper_width_m: float | None) -> np.ndarray:
-        if gripper_width_m is not None:
-            self.set_gripper_width(gripper_width_m)
         self._qf[: self.robot.dof] = q
+        self._qf[self._finger_idx] = self._half_gap if gripper_width_m is None else self._half(gripper_width_m)
         return self._qf
 
     def in_collision(self, q: np.ndarray, gripper_width_m: float | None = None) -> bool:
         """True when any checked pair touches (padded). Covers self, table, workspace, keep-out, obstacles, cloud
-        and held object; joint limits are NOT part of this (see safety.limits)."""
+        and held object; joint limits are NOT part of this (see safety.limits). gripper_width_m applies to this
+        call only (default: gripper_width_m property)."""
         return self._backend.in_collision(self._full(q, gripper_width_m))
 
     def check(self, q: np.ndarray, gripper_width_m: float | None = None) -> list[Contact]:

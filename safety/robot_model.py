@@ -38,9 +38,11 @@ class RobotModel:
         self.link_names: tuple[str, ...] = (*self.spec.links, *self.spec.gripper.finger_links)
         self._frame_ids = {name: self.model.getFrameId(name) for name in self.link_names}
         self.tcp_frame_id = self._frame_ids[self.tcp_frame]
-        self._finger_idx = [self.model.joints[self.model.getJointId(n)].idx_q for n in self.spec.gripper.finger_joints]
+        self.finger_q_indices = [
+            self.model.joints[self.model.getJointId(n)].idx_q for n in self.spec.gripper.finger_joints
+        ]
         self._q = pin.neutral(self.model)
-        self.set_gripper_width(self.spec.gripper.max_width_m)
+        self._default_half_gap = self.spec.gripper.max_width_m / 2
 
     def copy(self) -> RobotModel:
         """An independent model (own pin.Data) for another thread."""
@@ -49,22 +51,26 @@ class RobotModel:
     # ---- configuration -------------------------------------------------------------------------------------
     @property
     def gripper_width_m(self) -> float:
-        return float(2 * self._q[self._finger_idx[0]])
+        """Finger gap [m] used when a call gives none (default: fully open)."""
+        return 2 * self._default_half_gap
 
     def set_gripper_width(self, width_m: float) -> None:
-        """Finger gap [m] used when a call gives none; clamped to the gripper's stroke."""
+        """Set the default finger gap [m]; clamped to the gripper's stroke."""
+        self._default_half_gap = self._half_gap(width_m)
+
+    def _half_gap(self, width_m: float) -> float:
         g = self.spec.gripper
-        half = float(np.clip(width_m, g.min_width_m, g.max_width_m)) / 2
-        self._q[self._finger_idx] = half
+        return float(np.clip(width_m, g.min_width_m, g.max_width_m)) / 2
 
     def full_q(self, q: np.ndarray, gripper_width_m: float | None = None) -> np.ndarray:
-        """The Pinocchio configuration (arm angles + both finger joints) for arm angles q."""
+        """The Pinocchio configuration (arm angles + both finger joints) for arm angles q; gripper_width_m applies
+        to this call only (default: gripper_width_m property)."""
         q = np.asarray(q, dtype=np.float64)
         if q.shape != (self.dof,):
             raise ValueError(f"expected {self.dof} joint angles, got shape {q.shape}")
-        if gripper_width_m is not None:
-            self.set_gripper_width(gripper_width_m)
         self._q[: self.dof] = q
+        half = self._default_half_gap if gripper_width_m is None else self._half_gap(gripper_width_m)
+        self._q[self.finger_q_indices] = half
         return self._q.copy()
 
     def within_limits(self, q: np.ndarray, margin_rad: float = 0.0) -> bool:

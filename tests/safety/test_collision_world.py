@@ -137,3 +137,12 @@ def test_fast_path_agrees_with_detailed_check(robot):
     hits = [w.in_collision(q) for q in Q]
     assert hits == [bool(w.check(q)) for q in Q]
     assert 0 < sum(hits) < len(Q)
+
+
+def test_per_call_gripper_width_does_not_stick(robot):
+    tcp = _tcp(robot, robot.home_q)
+    w = CollisionWorld(robot, obstacles=[Primitive("block", WORLD, "box", (0.06, 0.06, 0.06), pose(tcp))])
+    assert w.in_collision(robot.home_q, gripper_width_m=0.02)
+    assert not w.in_collision(robot.home_q)  # back to the world's own (open) width
+    w.set_gripper_width(0.02)
+    assert w.in_collision(robot.home_q) and w.gripper_width_m == pytest.approx(0.02)

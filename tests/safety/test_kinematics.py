@@ -117,3 +117,12 @@ def test_wrong_joint_count_is_refused(robot):
         robot.tcp_pose(np.zeros(6))
     with pytest.raises(KeyError, match="unknown frame"):
         robot.frame_pose(np.zeros(7), "link9")
+
+
+def test_per_call_gripper_width_does_not_change_the_default(robot):
+    default = robot.gripper_width_m
+    robot.fk(robot.home_q, gripper_width_m=0.01)
+    assert robot.gripper_width_m == default
+    poses = robot.fk(robot.home_q)
+    gap = np.linalg.norm(poses["left_finger"][:3, 3] - poses["right_finger"][:3, 3])
+    assert gap == pytest.approx(default)
