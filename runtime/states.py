@@ -90,6 +90,9 @@ class StateMachine:
     def add_listener(self, listener: Callable[[Transition], None]) -> None:
         self._listeners.append(listener)
 
+    def remove_listener(self, listener: Callable[[Transition], None]) -> None:
+        self._listeners.remove(listener)
+
     def seconds_in_state(self) -> float:
         return self._clock() - self._entered
 

@@ -40,6 +40,7 @@ class Supervisor:
         self._stop_thread = threading.Event()
         self._thread = threading.Thread(target=self._watch, name="supervisor", daemon=True)
         self.stop_count = 0
+        self.graceful_stop = False  # the current run ends by an abort during motion: stop on the path
         machine.add_listener(self._on_transition)
         keys = bus.keys
         bus.subscribe(keys.estop, EStop, self._on_estop)
@@ -75,10 +76,14 @@ class Supervisor:
         if self.machine.estop(reason):
             self._event("error", f"E-STOP: {reason}")
 
-    def fail(self, reason: str) -> None:
-        """End the run as FAILED; stops the arm first when it may be moving."""
+    def fail(self, reason: str, graceful: bool = False) -> None:
+        """End the run as FAILED; stops the arm first when it may be moving. `graceful` (operator abort) leaves
+        the stop to the run loop, which brings the arm to rest on its path (jerk-limited) and then stops it."""
         if self.machine.state in MOVING:
-            self.halt()
+            if graceful:
+                self.graceful_stop = True
+            else:
+                self.halt()
         self.cancel.set()
         if self.machine.fail(reason):
             self._event("error", reason)
@@ -88,6 +93,7 @@ class Supervisor:
             self.cancel.set()
         elif t.state == State.CAPTURING:
             self.cancel.clear()
+            self.graceful_stop = False
 
     # -- message callbacks (Zenoh threads) ------------------------------------------------------------------
     def _on_estop(self, _key: str, msg: EStop) -> None:
@@ -111,7 +117,7 @@ class Supervisor:
     def _on_command(self, _key: str, cmd: Command) -> None:
         if cmd.action == "abort":
             if self.machine.state not in TERMINAL and self.machine.state != State.IDLE:
-                self.fail(f"aborted by the operator (from {cmd.source or 'unknown'})")
+                self.fail(f"aborted by the operator (from {cmd.source or 'unknown'})", graceful=True)
             return
         with self._lock:
             self.commands.append(cmd)

@@ -54,4 +54,17 @@ if "mujoco" not in sys.modules:
 
 import mujoco  # noqa: E402  (must follow the backend selection)
 
-__all__ = ["RenderBackendError", "mujoco", "select_backend"]
+
+def release_context() -> None:
+    """Unbind the EGL context from the calling thread. EGL lets a context be current on one thread at a time and
+    mujoco.Renderer binds it at creation, so a process that renders on a worker thread releases it here first."""
+    if os.environ.get("MUJOCO_GL") != "egl":
+        return
+    import mujoco.egl as mj_egl
+
+    if mj_egl.EGL_DISPLAY is not None:
+        egl = mj_egl.EGL
+        egl.eglMakeCurrent(mj_egl.EGL_DISPLAY, egl.EGL_NO_SURFACE, egl.EGL_NO_SURFACE, egl.EGL_NO_CONTEXT)
+
+
+__all__ = ["RenderBackendError", "mujoco", "release_context", "select_backend"]

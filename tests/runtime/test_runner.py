@@ -1,0 +1,216 @@
+"""The run loop on the sim with a scripted pipeline: the happy path, the record, and every fault ending in the
+right state with the arm stopped and the reason recorded."""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+
+import numpy as np
+import pytest
+from runtime_helpers import free_port, wait_for
+from scripted_stages import ScriptedStages
+
+from runtime.bus import Bus
+from runtime.config import load_profile
+from runtime.devices import open_devices
+from runtime.estop import EStopNode
+from runtime.messages import Command, Confirm, Event
+from runtime.runner import Runtime
+from runtime.states import State
+
+pytestmark = pytest.mark.slow
+
+
+def make_profile(sim_config_path, runtime=None, faults=None):
+    overrides = {
+        "runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": "t", **(runtime or {})},
+        "sim": {"faults": faults or {}},
+    }
+    return load_profile(sim_config_path, overrides)
+
+
+def assert_still(devices, seconds=0.3):
+    """Nothing moves: the arm's joints stay put and its velocities are ~0."""
+    q0 = devices.arm.read_state().q
+    time.sleep(seconds)
+    js = devices.arm.read_state()
+    assert np.max(np.abs(js.q - q0)) < 2e-3, f"arm still moving: {js.q - q0}"
+    assert np.max(np.abs(js.qd)) < 0.05
+
+
+@pytest.fixture
+def session(sim_config_path, tmp_path):
+    """Factory: (runtime, devices, stages) on the realtime sim; everything closed at the end."""
+    stack = []
+
+    def make(stages=None, confirm="yes", runtime=None, faults=None):
+        profile = make_profile(sim_config_path, runtime, faults)
+        cm = open_devices(profile)
+        devices = cm.__enter__()
+        stack.append(cm)
+        rt = Runtime(profile, devices, stages or ScriptedStages(), confirm=confirm)
+        stack.append(rt)
+        assert wait_for(rt.supervisor.deadman_ok)
+        return rt, devices
+
+    yield make
+    for item in reversed(stack):
+        item.__exit__(None, None, None)
+
+
+def run_async(rt, tmp_path, instruction="move the arm"):
+    box = {}
+    th = threading.Thread(target=lambda: box.update(result=rt.run(instruction, tmp_path / "run")), daemon=True)
+    th.start()
+    return th, box
+
+
+def test_happy_path_writes_the_record(session, tmp_path):
+    rt, _devices = session()
+    result = rt.run("move the arm", tmp_path / "run")
+    assert result.ok, result.reason
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["status"] == "DONE" and summary["confirmed_by"] == "cli --yes"
+    assert set(summary["stage_seconds"]) == {
+        "capturing",
+        "reasoning",
+        "grounding",
+        "planning",
+        "awaiting_confirm",
+        "executing",
+        "verifying",
+    }
+    assert [t["to"] for t in summary["transitions"]][-1] == "DONE"
+    assert (tmp_path / "run" / "capture.png").stat().st_size > 1000
+    assert "DONE" in (tmp_path / "run" / "report.html").read_text()
+
+
+def test_camera_timeout_fails_capture(session, tmp_path):
+    rt, devices = session(faults={"camera_timeout_after_s": 0.0})
+    result = rt.run("x", tmp_path / "run")
+    assert result.status == State.FAILED and result.reason.startswith("capture: CameraTimeoutError")
+    assert_still(devices)
+
+
+def test_arm_error_mid_trajectory(session, tmp_path):
+    stages = ScriptedStages(move_speed_rad_s=0.12)  # a ~5 s move; the controller error comes at sim t = 2.5 s
+    rt, devices = session(stages, faults={"arm_error_at_s": 2.5, "arm_error_code": 31})
+    result = rt.run("x", tmp_path / "run")
+    assert result.status == State.FAILED and "controller error 31" in result.reason
+    assert 0 < stages.streamed < stages.planned - 1  # it stopped mid-trajectory
+    assert_still(devices)
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["reason"] == result.reason
+
+
+def test_heartbeat_loss_during_execution_estops(session, tmp_path):
+    stages = ScriptedStages(move_speed_rad_s=0.12)
+    rt, devices = session(stages)
+    th, box = run_async(rt, tmp_path)
+    assert stages.executing.wait(10)
+    time.sleep(0.3)
+    rt.estop_node.paused.set()  # the e-stop node freezes
+    th.join(10)
+    assert box["result"].status == State.ESTOPPED and "deadman" in box["result"].reason
+    assert_still(devices)
+    rt.estop_node.paused.clear()
+    with pytest.raises(Exception, match="ESTOPPED"):  # latched: no new run before a reset
+        rt.machine.advance(State.CAPTURING)
+
+
+def test_estop_during_execution_from_another_node(session, tmp_path):
+    stages = ScriptedStages(move_speed_rad_s=0.12)
+    rt, devices = session(stages)
+    cfg = rt.profile.runtime
+    with Bus(cfg.zenoh, cfg.robot_id, "connect") as pendant_bus:
+        pendant = EStopNode(pendant_bus, "pendant", 20).start()
+        th, box = run_async(rt, tmp_path)
+        assert stages.executing.wait(10)
+        time.sleep(0.3)
+        streamed = stages.streamed
+        pendant.press("operator pressed E-STOP")
+        th.join(5)
+        pendant.close()
+    assert box["result"].status == State.ESTOPPED and "operator pressed E-STOP (from pendant)" in box["result"].reason
+    assert stages.streamed - streamed < 10  # streaming ended within a few ticks
+    assert_still(devices)
+    rt.reset("test")
+    assert rt.machine.state == State.IDLE and not rt.arm_halted
+
+
+def test_stuck_backend_is_cut_off_by_its_budget(session, tmp_path):
+    rt, devices = session(ScriptedStages(reason_delay_s=2.0), runtime={"budgets_s": {"reasoning": 0.3}})
+    t0 = time.monotonic()
+    result = rt.run("x", tmp_path / "run")
+    assert time.monotonic() - t0 < 1.5  # the run ended long before the backend returned
+    assert result.status == State.FAILED and "REASONING took too long" in result.reason
+    assert_still(devices)
+
+
+def test_backend_timeout_error_fails_with_its_message(session, tmp_path):
+    rt, _devices = session(ScriptedStages(reason_error=TimeoutError("image editor: no reply within 60 s")))
+    result = rt.run("x", tmp_path / "run")
+    assert result.status == State.FAILED
+    assert (
+        result.reason == "reason: unexpected TimeoutError: image editor: no reply within 60 s (traceback in error.txt)"
+    )
+
+
+def test_implausible_grounding_is_refused(session, tmp_path):
+    rt, devices = session(ScriptedStages(ground_error="implausible scale 2.40 (allowed 0.8..1.25)"))
+    result = rt.run("x", tmp_path / "run")
+    assert result.status == State.FAILED and result.reason == "ground: implausible scale 2.40 (allowed 0.8..1.25)"
+    assert_still(devices)
+
+
+def test_confirm_timeout(session, tmp_path):
+    stages = ScriptedStages()
+    rt, devices = session(stages, confirm="console", runtime={"budgets_s": {"awaiting_confirm": 0.5}})
+    result = rt.run("x", tmp_path / "run")
+    assert result.status == State.FAILED and result.reason.startswith("confirm timeout")
+    assert stages.streamed == 0
+    assert_still(devices)
+
+
+def test_confirm_for_a_stale_plan_is_rejected(session, tmp_path):
+    stages = ScriptedStages()
+    rt, _devices = session(stages, confirm="console", runtime={"budgets_s": {"awaiting_confirm": 5.0}})
+    cfg = rt.profile.runtime
+    with Bus(cfg.zenoh, cfg.robot_id, "connect") as console:
+        events = []
+        console.subscribe(console.keys.events, Event, lambda k, m: events.append(m.text))
+        th, box = run_async(rt, tmp_path)
+        assert wait_for(lambda: rt.machine.state == State.AWAITING_CONFIRM, 10)
+        plan_id = rt.status.plan_id
+        console.publish(console.keys.confirm, Confirm(stamp_s=0, plan_id="old-plan", source="console"))
+        assert wait_for(lambda: any("old-plan rejected" in e for e in events))
+        assert rt.machine.state == State.AWAITING_CONFIRM and stages.streamed == 0
+        console.publish(console.keys.confirm, Confirm(stamp_s=0, plan_id=plan_id, source="console"))
+        th.join(20)
+    assert box["result"].ok and box["result"].summary["confirmed_by"] == "console"
+
+
+def test_abort_during_execution_stops_on_the_path(session, tmp_path):
+    stages = ScriptedStages(move_speed_rad_s=0.12)
+    rt, devices = session(stages)
+    cfg = rt.profile.runtime
+    with Bus(cfg.zenoh, cfg.robot_id, "connect") as console:
+        th, box = run_async(rt, tmp_path)
+        assert stages.executing.wait(10)
+        time.sleep(0.3)
+        console.publish(console.keys.command, Command(stamp_s=0, action="abort", source="console"))
+        th.join(5)
+    assert box["result"].status == State.FAILED and box["result"].reason == "aborted by the operator (from console)"
+    assert_still(devices)
+    assert rt.arm_halted
+    second = rt.run("again", tmp_path / "run2")
+    assert second.status == State.FAILED and "press Reset" in second.reason
+
+
+def test_in_process_estop_refused_on_hardware(sim_config_path):
+    profile = make_profile(sim_config_path).model_copy(
+        update={"robot": make_profile(sim_config_path).robot.model_copy(update={"kind": "xarm7"})}
+    )
+    with pytest.raises(ValueError, match="sim only"):
+        Runtime(profile, devices=None, stages=ScriptedStages())
