@@ -62,7 +62,7 @@ class ChecksConfig(StrictModel):
     max_reregister_scale_change: float = Field(default=0.25, gt=0, description="refuse larger zooms outright")
     pixel_change_threshold: int = Field(default=40, ge=1, le=255, description="background colour change per pixel")
     max_changed_blob_frac: float = Field(
-        default=0.004, gt=0, description="a changed background region larger than this image fraction = moved object"
+        default=0.0015, gt=0, description="a changed background region larger than this image fraction = moved object"
     )
     max_target_iou: float = Field(default=0.97, gt=0, le=1, description="target mask overlap meaning 'did not move'")
     mask_margin_px: int = Field(default=6, ge=0, description="masks are grown by this much when comparing backgrounds")

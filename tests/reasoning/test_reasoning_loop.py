@@ -1,0 +1,175 @@
+"""Reflection-through-Synthesis: acceptance, geometric checks, re-registration, failure reasons, override, record."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from pipeline.config import ChecksConfig, PipelineConfig
+from pipeline.perception.depth import DepthEstimator, OfflineDepthEstimator, RelativeDepth
+from pipeline.perception.offline_segmenter import OfflineSegmenter
+from pipeline.reasoning.factory import build_reasoner, preflight
+from pipeline.reasoning.interfaces import ImageEditor
+from pipeline.reasoning.offline_editor import OfflineEditor
+from pipeline.reasoning.offline_vlm import OfflineVLM
+from pipeline.reasoning.providers import MissingApiKeyError, ProviderError
+from pipeline.reasoning.reasoner import Reasoner, synthesize
+from pipeline.reasoning.types import EditRequest, EditResult, ReasoningError
+
+ON_PLATE = "put the red block on the white plate"
+
+
+class ScriptedEditor(ImageEditor):
+    """Returns prepared candidates in order (a stand-in for a generative editor's mistakes)."""
+
+    def __init__(self, *images: np.ndarray) -> None:
+        self.images = list(images)
+        self.prompts: list[str] = []
+
+    def edit(self, request: EditRequest) -> EditResult:
+        self.prompts.append(request.prompt)
+        if not self.images:
+            raise ProviderError("no_image", "scripted editor: no candidate left", raw="text only")
+        return EditResult(self.images.pop(0), raw="scripted")
+
+
+class FlatDepth(DepthEstimator):
+    def estimate(self, rgb):
+        return RelativeDepth(np.ones(rgb.shape[:2], np.float32), "disparity")
+
+
+def reasoner(editor: ImageEditor, config: PipelineConfig | None = None) -> Reasoner:
+    seg = OfflineSegmenter()
+    return Reasoner(editor, OfflineVLM(seg), seg, FlatDepth(), config or PipelineConfig())
+
+
+@pytest.fixture(scope="module")
+def composed(sim_view):
+    """Offline goal candidates for the tabletop view, keyed by prompt."""
+    frame, _, _ = sim_view
+    editor = OfflineEditor(OfflineSegmenter())
+
+    def make(prompt: str) -> np.ndarray:
+        return editor.edit(EditRequest(frame.rgb, prompt, frame.depth, frame.intrinsics)).rgb
+
+    return make
+
+
+def test_default_profile_accepts_a_valid_goal_and_records_everything(sim_view, tmp_path):
+    frame, masks, _ = sim_view
+    goal = build_reasoner(PipelineConfig()).run(frame, ON_PLATE, record_dir=tmp_path / "rec")
+    assert goal.validated and len(goal.iterations) == 1 and goal.verdicts[0].valid
+    assert goal.prompts == ("put the red block on the white plate",)
+    assert goal.mask_init.shape == goal.mask_goal.shape == frame.depth.shape
+    assert (goal.mask_init & masks["red_block"]).sum() > 0.85 * masks["red_block"].sum()
+    assert goal.depth_goal.kind == "disparity" and goal.depth_goal.values.dtype == np.float32
+    assert set(goal.seconds) >= {"enhance", "segment", "edit", "checks", "reflect", "depth"}
+    rec = tmp_path / "rec"
+    for name in ("initial.png", "goal.png", "mask_init.png", "mask_goal.png", "goal_depth.npy", "enhancement.json"):
+        assert (rec / name).exists(), name
+    for name in ("prompt.txt", "edit_raw.txt", "candidate.png", "overlay.png", "verdict.json", "iteration.json"):
+        assert (rec / "iter_1" / name).exists(), name
+    summary = json.loads((rec / "reasoning.json").read_text())
+    assert summary["ok"] and summary["validated"] and summary["accepted_iteration"] == 1
+    with pytest.raises(FileExistsError):
+        build_reasoner(PipelineConfig()).run(frame, ON_PLATE, record_dir=rec)
+
+
+def test_overlay_blends_the_goal_object_at_alpha():
+    init = np.zeros((4, 4, 3), np.uint8)
+    goal = np.full((4, 4, 3), 200, np.uint8)
+    mask = np.zeros((4, 4), bool)
+    mask[1, 1] = True
+    out = synthesize(init, goal, mask, 0.25)
+    assert out[1, 1, 0] == 50 and out[0, 0, 0] == 0
+
+
+def test_wrong_relation_is_rejected_each_iteration_and_the_run_fails(sim_view, composed, tmp_path):
+    frame, _, _ = sim_view
+    wrong = composed("put the red block right of the green cylinder")
+    editor = ScriptedEditor(wrong, wrong, wrong)
+    with pytest.raises(ReasoningError) as e:
+        reasoner(editor).run(frame, "put the red block left of the green cylinder", record_dir=tmp_path)
+    assert len(e.value.reasons) == 3 and all("'left of' does not hold" in r for r in e.value.reasons)
+    assert not json.loads((tmp_path / "reasoning.json").read_text())["ok"]
+
+
+def test_override_allows_the_last_unvalidated_goal_only_when_asked(sim_view, composed):
+    frame, _, _ = sim_view
+    wrong = composed("put the red block right of the green cylinder")
+    goal = reasoner(ScriptedEditor(wrong, wrong)).run(
+        frame, "put the red block left of the green cylinder", allow_unvalidated=True
+    )
+    assert not goal.validated and len(goal.iterations) == 3
+    assert goal.iterations[2].failure_kind == "no_image"  # the third try had no image: the second is used
+    assert goal.prompt == goal.iterations[1].prompt and not goal.iterations[1].verdict.valid
+    with pytest.raises(ReasoningError):
+        reasoner(ScriptedEditor(wrong)).run(frame, "put the red block left of the green cylinder")
+
+
+def test_zoomed_candidate_is_reregistered_then_accepted(sim_view, composed):
+    frame, _, _ = sim_view
+    good = composed(ON_PLATE)
+    h, w = good.shape[:2]
+    zoomed = cv2.resize(good[9 : h - 9, 16 : w - 16], (w + 64, h + 36))  # 5 % zoom, other resolution
+    goal = reasoner(ScriptedEditor(zoomed)).run(frame, ON_PLATE)
+    it = goal.iterations[0]
+    assert it.registered and goal.validated and "framing changed" in it.checks[0]
+    assert goal.rgb_goal.shape == frame.rgb.shape
+
+
+def test_zoomed_candidate_is_refused_when_configured(sim_view, composed):
+    frame, _, _ = sim_view
+    good = composed(ON_PLATE)
+    h, w = good.shape[:2]
+    zoomed = cv2.resize(good[9 : h - 9, 16 : w - 16], (w, h))
+    config = PipelineConfig(reflection_iterations=1, checks=ChecksConfig(framing="refuse"))
+    with pytest.raises(ReasoningError) as e:
+        reasoner(ScriptedEditor(zoomed), config).run(frame, ON_PLATE)
+    assert "framing changed" in e.value.reasons[0] and "zoom" in e.value.reasons[0]
+
+
+def test_checks_catch_missing_duplicated_unmoved_target_and_moved_objects(sim_view, composed):
+    frame, masks, _ = sim_view
+    good = composed(ON_PLATE)
+    missing = frame.rgb.copy()
+    red = masks["red_block"]
+    missing[red] = cv2.inpaint(frame.rgb, red.astype(np.uint8) * 255, 5, cv2.INPAINT_TELEA)[red]
+    duplicated = good.copy()
+    duplicated[red] = frame.rgb[red]  # the block on the plate and still at its old place
+    others_moved = composed("push the blue block left by 10 cm")
+    others_moved = np.where(masks["red_block"][..., None] | _near(good, frame.rgb), good, others_moved)
+    editor = ScriptedEditor(missing, duplicated, frame.rgb.copy())
+    with pytest.raises(ReasoningError) as e:
+        reasoner(editor).run(frame, ON_PLATE)
+    assert "missing" in e.value.reasons[0]
+    assert "appears 2 times" in e.value.reasons[1]
+    assert "did not change" in e.value.reasons[2]
+    with pytest.raises(ReasoningError) as e:
+        reasoner(ScriptedEditor(others_moved), PipelineConfig(reflection_iterations=1)).run(frame, ON_PLATE)
+    assert "background changed outside the target" in e.value.reasons[0]
+
+
+def _near(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Pixels where two images differ (the red block's move), grown a little."""
+    diff = (np.abs(a.astype(int) - b.astype(int)).max(axis=2) > 0).astype(np.uint8)
+    return cv2.dilate(diff, np.ones((9, 9), np.uint8)).astype(bool)[..., None]
+
+
+def test_build_reasoner_fails_at_start_up_without_keys(monkeypatch):
+    monkeypatch.delenv("GEMINI_API_KEY", raising=False)
+    monkeypatch.delenv("OPENAI_API_KEY", raising=False)
+    config = PipelineConfig(editor="gemini", vlm="openai")
+    problems = preflight(config)
+    assert len(problems) == 2 and "GEMINI_API_KEY" in problems[0] and "OPENAI_API_KEY" in problems[1]
+    with pytest.raises(MissingApiKeyError, match="GEMINI_API_KEY"):
+        build_reasoner(config)
+    assert preflight(PipelineConfig()) == []
+
+
+def test_offline_depth_is_wired_to_the_offline_editor():
+    r = build_reasoner(PipelineConfig())
+    assert isinstance(r.depth, OfflineDepthEstimator) and r.editor.depth_registry is r.depth

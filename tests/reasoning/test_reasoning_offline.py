@@ -1,0 +1,130 @@
+"""Offline grammar, segmenter and editor on the simulated tabletop (ground truth is used only to check them)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.perception.depth import DepthEstimationError, OfflineDepthEstimator
+from pipeline.perception.offline_segmenter import OfflineSegmenter
+from pipeline.reasoning.instruction import GRAMMAR, InstructionError, parse_instruction
+from pipeline.reasoning.offline_editor import OfflineEditor
+from pipeline.reasoning.providers import ProviderError
+from pipeline.reasoning.types import EditRequest
+
+
+@pytest.mark.parametrize(
+    ("sentence", "action", "target", "relation", "reference"),
+    [
+        ("Put the red block on the white plate.", "place", "red block", "on", "white plate"),
+        ("place the red block onto the plate", "place", "red block", "on", "plate"),
+        ("move the blue block to the left of the green cylinder", "place", "blue block", "left_of", "green cylinder"),
+        ("put the red cube in front of the blue block", "place", "red box", "in_front_of", "blue block"),
+        ("put the red block into the pan", "place", "red block", "in", "pan"),
+        ("move the green can behind the red block", "place", "green can", "behind", "red block"),
+        ("place the red block next to the green cylinder", "place", "red block", "next_to", "green cylinder"),
+    ],
+)
+def test_grammar_place(sentence, action, target, relation, reference):
+    instr = parse_instruction(sentence)
+    assert (instr.action, instr.relation) == (action, relation)
+    assert instr.target.split()[0] == target.split()[0] and instr.reference.split()[-1] == reference.split()[-1]
+    assert parse_instruction(instr.canonical()) == instr
+
+
+def test_grammar_rotate_push_stand_close():
+    r = parse_instruction("rotate the blue block by 30 degrees clockwise")
+    assert r.action == "rotate" and r.angle_deg == -30.0
+    assert parse_instruction("turn the blue block 45 deg").angle_deg == 45.0
+    p = parse_instruction("push the red block left by 8 cm")
+    assert (p.direction, p.distance_m) == ("left", pytest.approx(0.08))
+    assert parse_instruction("push the pan").distance_m == pytest.approx(0.10)
+    assert parse_instruction("stand the green bottle up").action == "stand_up"
+    assert parse_instruction("stand up the green bottle").target == "green bottle"
+    assert parse_instruction("close the yellow chest").action == "close"
+    for text in ("rotate the blue block by 30 degrees clockwise", "push the red block left by 8 cm"):
+        instr = parse_instruction(text)
+        assert parse_instruction(instr.canonical()) == instr
+
+
+@pytest.mark.parametrize("bad", ["fly the red block away", "put the red gizmo on the plate", "push the block by 2 m"])
+def test_grammar_errors_name_the_problem(bad):
+    with pytest.raises(InstructionError) as e:
+        parse_instruction(bad)
+    assert GRAMMAR.splitlines()[0] in str(e.value) or "push distance" in str(e.value)
+
+
+@pytest.mark.parametrize(
+    ("phrase", "name"),
+    [
+        ("the red block", "red_block"),
+        ("blue block", "blue_block"),
+        ("green cylinder", "green_cylinder"),
+        ("white plate", "white_plate"),
+        ("the plate", "white_plate"),
+        ("the cylinder", "green_cylinder"),
+    ],
+)
+def test_offline_segmenter_matches_ground_truth(sim_view, phrase, name):
+    frame, masks, _ = sim_view
+    found = OfflineSegmenter().segment(frame.rgb, phrase)
+    gt = masks[name]
+    iou = (found[0].mask & gt).sum() / (found[0].mask | gt).sum()
+    assert iou > 0.85, f"{phrase}: IoU {iou:.2f}"
+    assert found[0].mask.shape == frame.rgb.shape[:2]
+
+
+def test_offline_segmenter_absent_colour_gives_nothing(sim_view):
+    frame, _, _ = sim_view
+    assert OfflineSegmenter().segment(frame.rgb, "the purple block") == []
+    assert OfflineSegmenter().segment(np.zeros((40, 60, 3), np.uint8), "red block") == []
+
+
+def test_editor_puts_the_block_on_the_plate_with_perspective(sim_view):
+    frame, masks, world = sim_view
+    seg, registry = OfflineSegmenter(), OfflineDepthEstimator()
+    result = OfflineEditor(seg, registry).edit(
+        EditRequest(frame.rgb, "put the red block on the white plate", frame.depth, frame.intrinsics)
+    )
+    T_bc = world.T_world_camera
+    T_motion_base = T_bc @ result.T_goal_init_camera @ np.linalg.inv(T_bc)
+    block, plate = world.object_pose("red_block")[:3, 3], world.object_pose("white_plate")[:3, 3]
+    moved = T_motion_base[:3, :3] @ block + T_motion_base[:3, 3]
+    assert np.linalg.norm(moved[:2] - plate[:2]) < 0.03  # centred on the plate (footprint estimate from depth)
+    assert 0.010 < moved[2] - block[2] < 0.025  # lifted by the plate's height (15 mm)
+    np.testing.assert_allclose(result.T_goal_init_camera[:3, :3], np.eye(3), atol=1e-9)
+    # the block is gone from where it was and present once at the plate
+    assert (seg.segment(result.rgb, "red block")[0].mask & masks["red_block"]).sum() == 0
+    assert len(seg.segment(result.rgb, "red block")) == 1
+    # the goal depth is registered, normalised disparity (nearer = larger)
+    depth = registry.estimate(result.rgb)
+    assert depth.kind == "disparity" and depth.values.shape == frame.depth.shape
+    assert 0.0 <= depth.values.min() and depth.values.max() <= 1.0
+    with pytest.raises(DepthEstimationError):
+        registry.estimate(frame.rgb)
+
+
+def test_editor_moving_nearer_enlarges_the_object(sim_view):
+    frame, _, _ = sim_view
+    seg = OfflineSegmenter()
+    result = OfflineEditor(seg).edit(
+        EditRequest(frame.rgb, "push the green cylinder backward by 15 cm", frame.depth, frame.intrinsics)
+    )
+    before = seg.segment(frame.rgb, "green cylinder")[0].area_px
+    after = seg.segment(result.rgb, "green cylinder")[0].area_px
+    assert after > 1.1 * before
+
+
+def test_editor_refusals_are_provider_errors(sim_view):
+    frame, _, _ = sim_view
+    editor = OfflineEditor(OfflineSegmenter())
+    for prompt, words in [
+        ("close the red block", "articulated"),
+        ("put the purple block on the plate", "matches 0 objects"),
+        ("push the red block backward by 50 cm", "leaves the camera view"),
+    ]:
+        with pytest.raises(ProviderError) as e:
+            editor.edit(EditRequest(frame.rgb, prompt, frame.depth, frame.intrinsics))
+        assert e.value.kind == "refused" and words in str(e.value), str(e.value)
+    with pytest.raises(ProviderError, match="depth frame"):
+        editor.edit(EditRequest(frame.rgb, "push the red block"))
