@@ -1,0 +1,139 @@
+"""Collision-free joint-space paths with OMPL, checked against the safety collision world.
+
+A direct straight-line move is tried first. Otherwise an OMPL planner (RRTConnect by default) searches within
+the joint limits minus the safety margin, with the collision world's `in_collision` as validity checker and
+motion checks every `resolution_rad` of joint motion (OMPL's L2 segment length bounds every joint's motion).
+The solution is shortcut, then every segment of the final path is re-checked densely by this module's own check:
+a simplified path that clips an obstacle is never returned.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from itertools import pairwise
+from typing import Literal
+
+import numpy as np
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from motion.limits import MotionLimits
+from safety.collision import CollisionWorld
+
+PlannerName = Literal["RRTConnect", "RRT", "RRTstar", "InformedRRTstar", "BITstar", "PRM", "KPIECE1", "BKPIECE1"]
+ou.setLogLevel(ou.LOG_WARN)
+ou.RNG.setSeed(1)  # OMPL seeds once per process, before its first sampler: runs are reproducible in order
+
+
+class PlanningError(RuntimeError):
+    """No collision-free path was found or the query itself is invalid; the message says which and why."""
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    planner: PlannerName = "RRTConnect"
+    timeout_s: float = 1.0  # search budget per attempt
+    attempts: int = 3  # fresh searches before giving up
+    simplify_s: float = 0.02  # shortcutting budget
+    resolution_rad: float = 0.005  # largest joint motion between collision checks
+    window_rad: float = np.pi  # continuous joints are searched within this of the start/goal range
+
+
+@dataclass(frozen=True)
+class JointPath:
+    waypoints: np.ndarray  # (M, dof) [rad], first = start, last = goal
+    method: str  # "direct" or the planner's name
+    planning_time_s: float
+
+
+class Planner:
+    """Plans in one collision world (not thread-safe, like the world: use one planner per thread)."""
+
+    def __init__(self, world: CollisionWorld, limits: MotionLimits, config: PlannerConfig | None = None) -> None:
+        self.world, self.limits = world, limits
+        self.config = config or PlannerConfig()
+        self.dof = limits.dof
+
+    # -- checks ------------------------------------------------------------------------------------------------
+    def valid(self, q: np.ndarray) -> bool:
+        q = np.asarray(q, dtype=np.float64)
+        inside = np.all(q >= self.limits.lower) and np.all(q <= self.limits.upper)
+        return bool(inside) and not self.world.in_collision(q)
+
+    def segment_free(self, qa: np.ndarray, qb: np.ndarray) -> bool:
+        """Every configuration on the straight line qa-qb, checked every resolution_rad of joint motion."""
+        n = max(1, int(np.ceil(np.max(np.abs(qb - qa)) / self.config.resolution_rad)))
+        return all(self.valid(qa + (qb - qa) * (k / n)) for k in range(n + 1))
+
+    def path_free(self, waypoints: np.ndarray) -> bool:
+        return all(self.segment_free(a, b) for a, b in pairwise(waypoints))
+
+    def why_invalid(self, q: np.ndarray, what: str) -> str:
+        low, high = q < self.limits.lower, q > self.limits.upper
+        if np.any(low | high):
+            j = int(np.flatnonzero(low | high)[0])
+            return (
+                f"{what} joint {j + 1} = {q[j]:.4f} rad is outside "
+                f"[{self.limits.lower[j]:.4f}, {self.limits.upper[j]:.4f}] (limits minus margin)"
+            )
+        contacts = ", ".join(f"{c.first} / {c.second} ({c.kind})" for c in self.world.check(q)[:3])
+        return f"{what} configuration is in collision: {contacts}"
+
+    # -- planning ----------------------------------------------------------------------------------------------
+    def plan(self, q_start: np.ndarray, q_goal: np.ndarray) -> JointPath:
+        t0 = time.perf_counter()
+        q_start, q_goal = (np.asarray(q, dtype=np.float64).reshape(self.dof) for q in (q_start, q_goal))
+        for q, what in ((q_start, "start"), (q_goal, "goal")):
+            if not self.valid(q):
+                raise PlanningError(self.why_invalid(q, what))
+        if self.segment_free(q_start, q_goal):
+            return JointPath(np.array([q_start, q_goal]), "direct", time.perf_counter() - t0)
+        for _ in range(self.config.attempts):
+            waypoints = self._search(q_start, q_goal)
+            if waypoints is not None:
+                return JointPath(waypoints, self.config.planner, time.perf_counter() - t0)
+        raise PlanningError(
+            f"{self.config.planner} found no collision-free path in {self.config.attempts} x "
+            f"{self.config.timeout_s} s from {np.round(q_start, 3)} to {np.round(q_goal, 3)}"
+        )
+
+    def _bounds(self, q_start: np.ndarray, q_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The joint limits, narrowed for wide joints to a window around start and goal (a 4 pi range mostly
+        offers detours; narrowing speeds up the search and shortens paths)."""
+        lo = np.maximum(self.limits.lower, np.minimum(q_start, q_goal) - self.config.window_rad)
+        hi = np.minimum(self.limits.upper, np.maximum(q_start, q_goal) + self.config.window_rad)
+        return lo, hi
+
+    def _search(self, q_start: np.ndarray, q_goal: np.ndarray) -> np.ndarray | None:
+        space = ob.RealVectorStateSpace(self.dof)
+        lo, hi = self._bounds(q_start, q_goal)
+        bounds = ob.RealVectorBounds(self.dof)
+        for j in range(self.dof):
+            bounds.setLow(j, float(lo[j]))
+            bounds.setHigh(j, float(hi[j]))
+        space.setBounds(bounds)
+        space.setLongestValidSegmentFraction(self.config.resolution_rad / space.getMaximumExtent())
+        setup = og.SimpleSetup(space)
+        dof, in_collision = self.dof, self.world.in_collision
+        setup.setStateValidityChecker(lambda s: not in_collision(np.fromiter((s[i] for i in range(dof)), float, dof)))
+        start, goal = space.allocState(), space.allocState()
+        for j in range(self.dof):
+            start[j], goal[j] = float(q_start[j]), float(q_goal[j])
+        setup.setStartAndGoalStates(start, goal)
+        setup.setPlanner(getattr(og, self.config.planner)(setup.getSpaceInformation()))
+        if not setup.solve(self.config.timeout_s) or not setup.haveExactSolutionPath():
+            return None
+        raw = _waypoints(setup.getSolutionPath(), self.dof)
+        setup.simplifySolution(self.config.simplify_s)
+        simplified = _waypoints(setup.getSolutionPath(), self.dof)
+        for candidate in (simplified, raw):  # the shortcut path must survive the dense re-check
+            candidate[0], candidate[-1] = q_start, q_goal
+            if self.path_free(candidate):
+                return candidate
+        return None
+
+
+def _waypoints(path: og.PathGeometric, dof: int) -> np.ndarray:
+    return np.array([[path.getState(i)[j] for j in range(dof)] for i in range(path.getStateCount())])

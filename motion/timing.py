@@ -1,0 +1,247 @@
+"""Jerk-limited time-parameterisation of joint-space paths with Ruckig, sampled at the control period.
+
+Community Ruckig cannot pass intermediate waypoints offline, so a path is timed as a chain of state-to-state
+segments. Baseline: the arm rests at every waypoint and each segment is phase-synchronised, so every joint moves
+on the straight joint-space line the planner validated. Blended: interior waypoints are crossed at a chosen
+velocity (no stop); a blended segment bends away from the straight line, so it is kept only where the caller's
+check (the safety gate) accepts the sampled result, and rejected segments fall back to rest-to-rest one by one.
+A segment whose TCP would move faster than the Cartesian limit is re-timed with uniformly scaled limits.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from itertools import pairwise
+from typing import Literal
+
+import numpy as np
+from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
+
+from motion.limits import MotionLimits
+from safety.trajectory import GripperEvent, JointTrajectory
+
+# Crossing speed cap as a fraction of the joint velocity limit: below 1 so a crossing need not brake at full jerk.
+BLEND_SPEED_FRACTION = 0.9
+# Ruckig's profiles may overshoot a limit by ~1e-5 relative; the gate tolerates only rounding, so time a hair
+# inside the limits (costs at most 0.1 % of duration).
+HEADROOM = 0.999
+# A segment whose sampled TCP speed exceeds TCP_SPEED_ACCEPT of the limit is re-timed to reach TCP_SPEED_TARGET.
+TCP_SPEED_ACCEPT, TCP_SPEED_TARGET = 0.99, 0.97
+# A check returns the times [s] of the samples it rejects (empty: accepted).
+Check = Callable[[JointTrajectory], Sequence[float]]
+TcpPositions = Callable[[np.ndarray], np.ndarray]  # (N, dof) -> (N, 3), e.g. RobotModel.tcp_positions
+
+
+class TimingError(RuntimeError):
+    """Ruckig found no trajectory for a segment, or the input path is unusable."""
+
+
+@dataclass(frozen=True)
+class GripperAction:
+    """Gripper step between path pieces; the arm holds still for duration_s [s] while it runs."""
+
+    kind: Literal["open", "close", "wait"]
+    duration_s: float
+    width_m: float = 0.0
+
+
+@dataclass(frozen=True)
+class _Hold:
+    q: np.ndarray
+    duration: float
+    event: GripperAction
+
+
+Piece = Trajectory | _Hold
+Step = np.ndarray | GripperAction
+
+
+def _scaled(limits: MotionLimits, f: float) -> MotionLimits:
+    return replace(
+        limits, velocity=limits.velocity * f, acceleration=limits.acceleration * f**2, jerk=limits.jerk * f**3
+    )
+
+
+def _ruckig(q0, v0, q1, v1, limits: MotionLimits) -> Trajectory:
+    """Time-optimal state-to-state trajectory; rest-to-rest is phase-synchronised (a straight joint line)."""
+    dof = limits.dof
+    inp = InputParameter(dof)
+    inp.current_position, inp.current_velocity, inp.current_acceleration = q0, v0, np.zeros(dof)
+    inp.target_position, inp.target_velocity, inp.target_acceleration = q1, v1, np.zeros(dof)
+    inp.max_velocity = limits.velocity * HEADROOM
+    inp.max_acceleration = limits.acceleration * HEADROOM
+    inp.max_jerk = limits.jerk * HEADROOM
+    rest = not (np.any(v0) or np.any(v1))
+    inp.synchronization = Synchronization.Phase if rest else Synchronization.Time
+    traj = Trajectory(dof)
+    result = Ruckig(dof).calculate(inp, traj)
+    if result not in (Result.Working, Result.Finished):
+        raise TimingError(f"Ruckig failed ({result}) from q={np.round(q0, 4)} to q={np.round(q1, 4)}")
+    return traj
+
+
+class TrajectoryTimer:
+    """Times joint paths and gripper actions for one arm at one control period dt [s]."""
+
+    def __init__(
+        self,
+        limits: MotionLimits,
+        dt: float,
+        joint_names: tuple[str, ...],
+        tcp_positions: TcpPositions | None = None,
+        max_tcp_speed_m_s: float = np.inf,
+    ) -> None:
+        self.limits, self.dt, self.joint_names = limits, dt, tuple(joint_names)
+        self.tcp_positions, self.max_tcp_speed = tcp_positions, max_tcp_speed_m_s
+
+    # -- segments ----------------------------------------------------------------------------------------------
+    def segment(self, q0, v0, q1, v1) -> Trajectory:
+        """One Ruckig segment, slowed uniformly while its sampled TCP speed is above the Cartesian limit."""
+        limits = self.limits
+        traj = _ruckig(q0, v0, q1, v1, limits)
+        for _ in range(4):
+            peak = self._tcp_peak(traj)
+            if peak <= self.max_tcp_speed * TCP_SPEED_ACCEPT:
+                return traj
+            limits = _scaled(limits, self.max_tcp_speed * TCP_SPEED_TARGET / peak)
+            traj = _ruckig(q0, v0, q1, v1, limits)
+        return traj
+
+    def _tcp_peak(self, traj: Trajectory) -> float:
+        if self.tcp_positions is None or not np.isfinite(self.max_tcp_speed) or traj.duration <= 0:
+            return 0.0
+        t = np.append(np.arange(0.0, traj.duration, self.dt), traj.duration)
+        p = self.tcp_positions(np.array([traj.at_time(x)[0] for x in t]))
+        return float(np.max(np.linalg.norm(np.diff(p, axis=0), axis=1) / np.maximum(np.diff(t), 1e-12)))
+
+    def blend_velocities(self, waypoints: np.ndarray) -> np.ndarray:
+        """Crossing velocity per waypoint: per joint, twice the smaller of the neighbouring segments' mean speeds
+        (from their rest-to-rest timing) where both move the joint the same way, else zero; ends at rest."""
+        v = np.zeros_like(waypoints)
+        if len(waypoints) < 3:
+            return v
+        rest = np.zeros(self.limits.dof)
+        durations = np.array([self.segment(a, rest, b, rest).duration for a, b in pairwise(waypoints)])
+        mean = np.diff(waypoints, axis=0) / np.maximum(durations, 1e-9)[:, None]
+        before, after = mean[:-1], mean[1:]
+        same = np.sign(before) * np.sign(after) > 0
+        speed = np.minimum(2.0 * np.minimum(np.abs(before), np.abs(after)), self.limits.velocity * BLEND_SPEED_FRACTION)
+        v[1:-1] = np.where(same, np.sign(after) * speed, 0.0)
+        return v
+
+    # -- whole sequences ---------------------------------------------------------------------------------------
+    def time(self, steps: Sequence[Step], blend: bool = False, check: Check | None = None) -> JointTrajectory:
+        """Time joint paths (M, dof) and gripper actions into one trajectory sampled every dt.
+
+        blend=False: rest at every waypoint (the straight lines the planner validated). blend=True: cross interior
+        waypoints without stopping where `check` (required) accepts the result; a segment holding a rejected
+        sample, or leaving the joint limits, loses its crossing velocities and the chain is re-timed, until the
+        check passes or everything is rest-to-rest (then the trajectory is returned for the gate to refuse).
+        """
+        steps = self._checked(steps)
+        paths = [s for s in steps if not isinstance(s, GripperAction)]
+        velocities = [np.zeros_like(p) for p in paths]
+        if not blend:
+            return self._sample(self._pieces(steps, velocities))[0]
+        if check is None:
+            raise TimingError("blended timing needs a check (the safety gate) to accept the bent segments")
+        velocities = [self.blend_velocities(p) for p in paths]
+        while True:
+            traj, starts = self._sample(self._pieces(steps, velocities))
+            bad_times = list(check(traj)) + self._outside_limits(traj)
+            if not bad_times or not any(np.any(v) for v in velocities):
+                return traj
+            _drop_blends_at(bad_times, starts, steps, velocities, self.dt)
+
+    def _checked(self, steps: Sequence[Step]) -> list[Step]:
+        out: list[Step] = []
+        for i, s in enumerate(steps):
+            if isinstance(s, GripperAction):
+                if s.duration_s < 0:
+                    raise TimingError(f"step {i}: gripper {s.kind} needs a duration >= 0, got {s.duration_s}")
+                out.append(s)
+                continue
+            p = np.asarray(s, dtype=np.float64)
+            if p.ndim != 2 or p.shape[1] != self.limits.dof or len(p) < 1 or not np.all(np.isfinite(p)):
+                raise TimingError(f"step {i}: need finite waypoints of shape (M, {self.limits.dof}), got {p.shape}")
+            try:
+                self.limits.check_positions(p, f"step {i} waypoint")
+            except ValueError as e:
+                raise TimingError(str(e)) from None
+            out.append(p)
+        paths = [s for s in out if not isinstance(s, GripperAction)]
+        if not paths:
+            raise TimingError("nothing to time: no joint path among the steps")
+        if isinstance(out[0], GripperAction):
+            raise TimingError("the first step must be a joint path (a gripper action holds the arm where it is)")
+        for i, (a, b) in enumerate(pairwise(paths)):
+            if not np.allclose(a[-1], b[0], atol=1e-9):
+                raise TimingError(f"paths {i} and {i + 1} do not join: a path must start where the previous one ends")
+        return out
+
+    def _pieces(self, steps: Sequence[Step], velocities: list[np.ndarray]) -> list[Piece]:
+        pieces: list[Piece] = []
+        q_last = None
+        paths = iter(velocities)
+        for step in steps:
+            if isinstance(step, GripperAction):
+                pieces.append(_Hold(q_last, step.duration_s, step))
+                continue
+            v = next(paths)
+            pieces += [self.segment(step[i], v[i], step[i + 1], v[i + 1]) for i in range(len(step) - 1)]
+            q_last = step[-1]
+        if not pieces:  # a single-waypoint path: hold it for one period
+            pieces.append(_Hold(steps[0][0], 0.0, GripperAction("wait", 0.0)))
+        return pieces
+
+    def _sample(self, pieces: Sequence[Piece]) -> tuple[JointTrajectory, np.ndarray]:
+        """Sample the chain at k * dt (the last sample is the final position at rest); also return each piece's
+        start time."""
+        dt = self.dt
+        starts = np.concatenate([[0.0], np.cumsum([p.duration for p in pieces])])
+        n = int(np.ceil(starts[-1] / dt - 1e-9)) + 1
+        t = np.minimum(np.arange(n) * dt, starts[-1])
+        owner = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(pieces) - 1)
+        q = np.empty((n, self.limits.dof))
+        events = []
+        for i, piece in enumerate(pieces):
+            mask = owner == i
+            if isinstance(piece, _Hold):
+                q[mask] = piece.q
+                a = piece.event
+                if a.duration_s > 0 or a.kind != "wait":
+                    events.append(GripperEvent(float(starts[i]), a.kind, a.width_m, a.duration_s))
+            else:
+                for k in np.flatnonzero(mask):
+                    q[k] = piece.at_time(t[k] - starts[i])[0]
+        last = pieces[-1]
+        q[-1] = last.q if isinstance(last, _Hold) else last.at_time(last.duration)[0]
+        return JointTrajectory(self.joint_names, dt, q, tuple(events)), starts
+
+    def _outside_limits(self, traj: JointTrajectory) -> list[float]:
+        q = traj.positions
+        return list(traj.times[np.any((q < self.limits.lower) | (q > self.limits.upper), axis=1)])
+
+
+def _drop_blends_at(bad_times, starts, steps, velocities: list[np.ndarray], dt: float) -> None:
+    """Zero the crossing velocities at both ends of every segment holding a rejected sample (a finite-difference
+    sample reaches 3 periods back, so segments ending up to 3 dt before it count too)."""
+    owners: list[tuple[int, int] | None] = []  # (path, segment) of each piece; None for gripper holds
+    p = -1
+    for s in steps:
+        if isinstance(s, GripperAction):
+            owners.append(None)
+        else:
+            p += 1
+            owners += [(p, k) for k in range(len(s) - 1)]
+    changed = False
+    for t in bad_times:
+        for i, owner in enumerate(owners):
+            if owner is not None and starts[i] - 1e-9 <= t and starts[i + 1] >= t - 3 * dt:
+                path, k = owner
+                changed |= bool(np.any(velocities[path][k : k + 2]))
+                velocities[path][k : k + 2] = 0.0
+    if not changed:  # rejected samples only in rest-to-rest parts: fall back everywhere
+        for v in velocities:
+            v[:] = 0.0
