@@ -99,7 +99,7 @@ def test_editor_puts_the_block_on_the_plate_with_perspective(sim_view):
     # the goal depth is registered, normalised disparity (nearer = larger)
     depth = registry.estimate(result.rgb)
     assert depth.kind == "disparity" and depth.values.shape == frame.depth.shape
-    assert 0.0 <= depth.values.min() and depth.values.max() <= 1.0
+    assert depth.values.min() >= 0.0 and depth.values.max() <= 1.0
     with pytest.raises(DepthEstimationError):
         registry.estimate(frame.rgb)
 
