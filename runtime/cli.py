@@ -83,5 +83,57 @@ def check_trajectory(
     raise typer.Exit(0 if report.ok else 3)
 
 
+@app.command()
+def run(
+    config: ConfigOption = DEFAULT_CONFIG,
+    instruction: Annotated[str | None, typer.Option(help="e.g. 'put the red block on the white plate'")] = None,
+    scene: Annotated[str | None, typer.Option(help="sim scene name (sim profiles only)")] = None,
+    seed: Annotated[int | None, typer.Option(help="sim scene seed (sim profiles only)")] = None,
+    yes: Annotated[bool, typer.Option("--yes", help="approve the plan without asking; e-stop still works")] = False,
+    record: Annotated[Path | None, typer.Option(help="run folder (default: runtime.runs_dir/<run id>)")] = None,
+    serve: Annotated[bool, typer.Option("--serve", help="stay up and run instructions sent from the console")] = False,
+) -> None:
+    """One supervised run: capture, reason, ground, plan, gate, confirm, execute, verify.
+
+    Exit 0 only when verification finds the goal reached; 1 failed, 3 e-stopped, 2 unusable arguments."""
+    from runtime.launch import run_command
+
+    if serve == (instruction is not None):
+        _fail("give --instruction TEXT for one run, or --serve to take instructions from the console")
+    sim = {k: v for k, v in (("scene", scene), ("seed", seed)) if v is not None}
+    profile = _load(config, {"sim": sim} if sim else None)
+    if sim and profile.robot.kind != "sim":
+        _fail(f"--scene/--seed only apply to sim profiles; {config} drives robot.kind {profile.robot.kind!r}")
+    raise typer.Exit(run_command(profile, instruction, yes, record, serve))
+
+
+@app.command()
+def estop(
+    config: ConfigOption = DEFAULT_CONFIG,
+    node: Annotated[str, typer.Option(help="this node's name in heartbeat/<node>")] = "estop-terminal",
+) -> None:
+    """Teleop e-stop: heartbeats at 20 Hz (the deadman); ANY KEY sends an e-stop, Ctrl-C sends one and quits."""
+    from runtime.bus import Bus
+    from runtime.estop import run_terminal_node
+
+    profile = _load(config)
+    cfg = profile.runtime
+    with Bus(cfg.zenoh, cfg.robot_id, "connect") as bus:
+        run_terminal_node(bus, node, cfg.heartbeat_rate_hz, typer.echo)
+
+
+@app.command()
+def console(
+    config: ConfigOption = DEFAULT_CONFIG,
+    port: Annotated[int, typer.Option(help="HTTP port of the operator page")] = 8080,
+    host: Annotated[str, typer.Option(help="HTTP address; keep the loopback default unless behind TLS")] = "127.0.0.1",
+) -> None:
+    """Operator console: a web page (http://HOST:PORT) with live status, images, plan, Run/Confirm/Abort/E-STOP."""
+    from runtime.console.server import serve_console
+
+    profile = _load(config)
+    serve_console(profile.runtime, host, port)
+
+
 if __name__ == "__main__":
     app()

@@ -28,6 +28,7 @@ from runtime.confirm import ConfirmGate
 from runtime.context import RunContext, StageError, Stages
 from runtime.devices import Devices
 from runtime.estop import EStopNode
+from runtime.messages import PlanSummary
 from runtime.record import RunRecord
 from runtime.states import State, StateMachine, TransitionError
 from runtime.status import StatusPublisher
@@ -72,7 +73,7 @@ class Runtime:
         devices: Devices,
         stages: Stages,
         confirm: ConfirmMode = "console",
-        prompt: Callable[[str], bool] | None = None,
+        prompt: Callable[[PlanSummary], bool] | None = None,
     ) -> None:
         cfg = profile.runtime
         if cfg.estop_node == "in_process" and profile.robot.kind != "sim":
@@ -145,6 +146,8 @@ class Runtime:
             self._sequence(ctx)
         except Cancelled:
             pass  # the supervisor already ended the run with its reason
+        except KeyboardInterrupt:
+            self.supervisor.estop("interrupted (Ctrl-C) in goalvla run")
         except TransitionError as e:
             if self.machine.state not in (State.FAILED, State.ESTOPPED):
                 self.supervisor.fail(str(e))
@@ -170,7 +173,7 @@ class Runtime:
         self.gate.expect(plan.plan_id)
         self.machine.advance(State.AWAITING_CONFIRM, f"plan {plan.plan_id}")
         self.bus.publish(self.bus.keys.plan, plan)
-        self._ask_confirmation(plan.plan_id)
+        self._ask_confirmation(plan)
         decision = self.gate.wait(ctx.cancel)
         if decision is None:
             raise Cancelled
@@ -192,15 +195,15 @@ class Runtime:
         else:
             raise self._fail(f"verify: {verdict.reason}")
 
-    def _ask_confirmation(self, plan_id: str) -> None:
+    def _ask_confirmation(self, plan: PlanSummary) -> None:
         if self.confirm_mode == "yes":
-            self.gate.send(plan_id, "cli --yes")
+            self.gate.send(plan.plan_id, "cli --yes")
         elif self.confirm_mode == "prompt" and self.prompt is not None:
 
             def ask() -> None:
-                approve = self.prompt(plan_id)
+                approve = self.prompt(plan)
                 if self.machine.state == State.AWAITING_CONFIRM:
-                    self.gate.send(plan_id, "terminal", approve)
+                    self.gate.send(plan.plan_id, "terminal", approve)
 
             threading.Thread(target=ask, name="confirm-prompt", daemon=True).start()
 

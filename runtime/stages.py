@@ -1,0 +1,245 @@
+"""The Goal-VLA pipeline as run stages: each calls the module that owns the work and records what it decided.
+
+No logic of the method lives here: reasoning is pipeline.reasoning, grounding pipeline.grounding, contact
+pipeline.contact, motion planning and the gate motion + safety. A stage whose module is missing from the build
+fails the run with a clear "not available" reason instead of pretending.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import time
+import uuid
+from typing import Any
+
+import numpy as np
+
+from runtime.context import RunContext, StageError, StageUnavailable, Verification
+from runtime.messages import PlanSummary
+from runtime.verify import compare, object_centre
+
+log = logging.getLogger(__name__)
+
+
+def require(stage: str, module: str, *names: str) -> Any:
+    """Import `module` and return the named attributes, or StageUnavailable naming what is missing."""
+    try:
+        mod = importlib.import_module(module)
+    except ImportError as e:
+        raise StageUnavailable(f"{module} is not available in this build ({e}): the {stage} stage cannot run") from e
+    missing = [n for n in names if not hasattr(mod, n)]
+    if missing:
+        raise StageUnavailable(f"{module} has no {', '.join(missing)}: the {stage} stage cannot run")
+    values = tuple(getattr(mod, n) for n in names)
+    return values[0] if len(values) == 1 else values
+
+
+class PipelineStages:
+    """Stateless between runs except for loaded backends (built once, on first use)."""
+
+    def __init__(self) -> None:
+        self._reasoner = None
+        self._features = None
+        self._segmenter = None
+
+    # -- capture ------------------------------------------------------------------------------------------
+    def _capture(self, ctx: RunContext, name: str):
+        dev = ctx.devices
+        frame = dev.camera.read(ctx.profile.camera.read_timeout_s).with_extrinsics(dev.T_base_camera)
+        ctx.record.image(name, frame.rgb)
+        np.savez_compressed(
+            ctx.record.dir / f"{name}.npz",
+            rgb=frame.rgb,
+            depth=frame.depth,
+            K=frame.intrinsics.K,
+            T_base_camera=frame.T_base_camera,
+        )
+        return frame
+
+    def capture(self, ctx: RunContext) -> None:
+        ctx.frame0 = self._capture(ctx, "capture")
+        if ctx.devices.world is not None:
+            ctx.extras["truth_before"] = _object_poses(ctx.devices.world)
+
+    # -- reasoning ----------------------------------------------------------------------------------------
+    def reason(self, ctx: RunContext) -> None:
+        build_reasoner = require("reasoning", "pipeline.reasoning.factory", "build_reasoner")
+        ReasoningError = require("reasoning", "pipeline.reasoning.types", "ReasoningError")
+        synthesize = require("reasoning", "pipeline.reasoning.reasoner", "synthesize")
+        if self._reasoner is None:
+            self._reasoner = build_reasoner(ctx.profile.pipeline)
+        try:
+            goal = self._reasoner.run(ctx.frame0, ctx.instruction, record_dir=str(ctx.record.dir / "reasoning"))
+        except ReasoningError as e:
+            raise StageError(str(e)) from None
+        ctx.goal = goal
+        ctx.record.image("goal", goal.rgb_goal)
+        ctx.record.image(
+            "overlay", synthesize(goal.rgb_init, goal.rgb_goal, goal.mask_goal, ctx.profile.pipeline.overlay_alpha)
+        )
+        ctx.record.image("masks", _mask_picture(goal.rgb_init, goal.mask_init, goal.mask_goal))
+        ctx.record.note(
+            reasoning={
+                "target": goal.target,
+                "prompt": goal.prompt,
+                "validated": goal.validated,
+                "iterations": len(goal.iterations),
+                "seconds": goal.seconds,
+            }
+        )
+
+    # -- grounding ----------------------------------------------------------------------------------------
+    def _features_backend(self, ctx: RunContext):
+        if self._features is None:
+            make = require("grounding", "pipeline.perception.features", "make_feature_extractor")
+            self._features = make(ctx.profile.pipeline.features)
+        return self._features
+
+    def ground(self, ctx: RunContext) -> None:
+        ground, GroundingInput = require("grounding", "pipeline.grounding.ground", "ground", "GroundingInput")
+        goal, frame = ctx.goal, ctx.frame0
+        inp = GroundingInput(
+            frame.rgb,
+            frame.depth,
+            goal.mask_init,
+            goal.rgb_goal,
+            goal.depth_goal.values,
+            goal.depth_goal.kind,
+            goal.mask_goal,
+            frame.intrinsics,
+        )
+        motion = ground(inp, self._features_backend(ctx), T_base_camera=frame.T_base_camera)
+        ctx.record.note(object_motion=_motion_json(motion))
+        if not motion.ok:
+            raise StageError(f"grounding refused: {motion.reason}")
+        ctx.motion = motion
+
+    # -- planning -----------------------------------------------------------------------------------------
+    def plan(self, ctx: RunContext) -> PlanSummary:
+        plan_manipulation = require("planning", "runtime.manipulation", "plan_manipulation")
+        result = plan_manipulation(ctx)
+        ctx.trajectory = result.approved
+        ctx.contact = result.contact
+        summary = PlanSummary(
+            stamp_s=time.time(),
+            plan_id=uuid.uuid4().hex[:10],
+            run_id=ctx.record.run_id,
+            instruction=ctx.instruction,
+            mode=result.mode,
+            duration_s=result.duration_s,
+            peak_joint_speed_rad_s=result.peak_joint_speed_rad_s,
+            min_clearance_m=result.min_clearance_m,
+            samples=result.samples,
+            gate_ok=True,
+            object_motion=ctx.extras.get("object_motion_base", {}),
+        )
+        return summary
+
+    # -- execution ----------------------------------------------------------------------------------------
+    def execute(self, ctx: RunContext) -> None:
+        Executor, ExecutorConfig = require("execution", "motion.executor", "Executor", "ExecutorConfig")
+        MotionLimits = require("execution", "motion.limits", "MotionLimits")
+        dev, profile = ctx.devices, ctx.profile
+        limits = MotionLimits.from_config(profile.safety, dev.world.spec if dev.world else _robot_spec())
+        executor = Executor(dev.arm, ExecutorConfig.from_configs(profile.robot, profile.safety), limits, dev.gripper)
+        ctx.extras["executor"] = executor
+        report = executor.execute(ctx.trajectory)
+        ctx.record.note(
+            execution={
+                "status": report.status,
+                "reason": report.reason,
+                "ticks": report.ticks,
+                "late_ticks": report.late_ticks,
+                "jitter_p99_s": report.jitter.p99_s,
+                "max_tracking_error_rad": report.max_tracking_error_rad,
+                "gripper": [{"kind": g.event.kind, "width_m": g.width_m, "grasped": g.grasped} for g in report.gripper],
+            }
+        )
+        if report.status != "completed":
+            raise StageError(f"execution {report.status}: {report.reason}")
+        if any(g.event.kind == "close" and g.grasped is False for g in report.gripper):
+            raise StageError("the gripper closed on nothing: the object was not grasped")
+
+    def stop_motion(self, ctx: RunContext, reason: str, graceful: bool) -> None:
+        executor = ctx.extras.get("executor")
+        if executor is None or not executor.running:
+            return
+        if graceful:
+            executor.abort(reason)
+            try:
+                executor.wait(timeout_s=2.0)
+                return
+            except TimeoutError:
+                log.warning("executor did not come to rest within 2 s of an abort: stopping at once")
+        executor.estop(reason)
+
+    # -- verification -------------------------------------------------------------------------------------
+    def verify(self, ctx: RunContext) -> Verification:
+        ground, GroundingInput = require("verification", "pipeline.grounding.ground", "ground", "GroundingInput")
+        build_segmenter = require("verification", "pipeline.reasoning.factory", "build_segmenter")
+        time.sleep(0.3)  # let the object settle after release
+        frame1 = ctx.frame1 = self._capture(ctx, "after")
+        if ctx.devices.world is not None:
+            ctx.extras["truth_after"] = _object_poses(ctx.devices.world)
+            ctx.record.note(sim_truth=_truth(ctx))
+        if self._segmenter is None:
+            self._segmenter = build_segmenter(ctx.profile.pipeline)
+        detections = self._segmenter.segment(frame1.rgb, ctx.goal.target)
+        if len(detections) != 1:
+            return Verification(False, f"target '{ctx.goal.target}' found {len(detections)} times after execution")
+        mask1 = detections[0].mask
+        ctx.record.image("mask_after", mask1)
+        frame0, mask0 = ctx.frame0, ctx.goal.mask_init
+        inp = GroundingInput(
+            frame0.rgb, frame0.depth, mask0, frame1.rgb, frame1.depth, "depth", mask1, frame0.intrinsics
+        )
+        achieved = ground(inp, self._features_backend(ctx), T_base_camera=frame0.T_base_camera)
+        ctx.record.note(achieved_motion=_motion_json(achieved))
+        if not achieved.ok:
+            return Verification(False, f"could not measure the achieved motion: {achieved.reason}")
+        points = frame0.intrinsics.unproject_depth_image(frame0.depth)[mask0 & np.isfinite(frame0.depth)]
+        goal = ctx.motion
+        cfg = ctx.profile.runtime
+        return compare(
+            goal.R,
+            goal.t,
+            achieved.R,
+            achieved.t,
+            object_centre(points),
+            cfg.verify_position_tol_m,
+            cfg.verify_rotation_tol_deg,
+        )
+
+
+def _robot_spec():
+    from drivers.description import load_robot_spec
+
+    return load_robot_spec()
+
+
+def _motion_json(motion) -> dict:
+    out = motion.to_json()
+    if motion.ok and motion.T_base_camera is not None:
+        T = motion.T_base
+        out["translation_base_m"] = T[:3, 3].tolist()
+    return out
+
+
+def _mask_picture(rgb: np.ndarray, mask_init: np.ndarray, mask_goal: np.ndarray) -> np.ndarray:
+    """The initial image dimmed, the target now in red and at the goal in green."""
+    out = (rgb.astype(np.float32) * 0.4).astype(np.uint8)
+    out[mask_init] = (0.5 * out[mask_init] + [127, 0, 0]).astype(np.uint8)
+    out[mask_goal] = (0.5 * out[mask_goal] + [0, 127, 0]).astype(np.uint8)
+    return out
+
+
+def _object_poses(world) -> dict[str, np.ndarray]:
+    return {o.name: world.object_pose(o.name) for o in world.scene.objects}
+
+
+def _truth(ctx: RunContext) -> dict:
+    """Simulator ground truth for the record and benchmarks (never used to decide success)."""
+    before, after = ctx.extras["truth_before"], ctx.extras["truth_after"]
+    moved = {n: float(np.linalg.norm(after[n][:3, 3] - before[n][:3, 3])) for n in before}
+    return {"object_displacement_m": moved}
