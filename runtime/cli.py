@@ -83,6 +83,71 @@ def check_trajectory(
     raise typer.Exit(0 if report.ok else 3)
 
 
+calibrate_app = typer.Typer(
+    help="Calibration: print the ChArUco board, run the hand-eye procedure.", no_args_is_help=True
+)
+app.add_typer(calibrate_app, name="calibrate")
+BoardOption = Annotated[Path, typer.Option("--board", help="board YAML", exists=True, dir_okay=False)]
+DEFAULT_BOARD = Path("configs/boards/charuco_8x6_30mm.yaml")
+
+
+@calibrate_app.command("board")
+def calibrate_board(
+    out: Annotated[Path, typer.Option("--out", help="board.png or board.pdf")],
+    board: BoardOption = DEFAULT_BOARD,
+    dpi: Annotated[int, typer.Option(help="print resolution")] = 300,
+) -> None:
+    """Write the board as a PNG/PDF at true scale: print at 100 % (no fit-to-page), check a square with a ruler."""
+    from calibration.board import BoardError, load_board, write_printable
+
+    try:
+        spec = load_board(board)
+        width, height = write_printable(spec, out, dpi)
+    except BoardError as e:
+        _fail(str(e))
+    w_mm, h_mm = (1000 * v for v in spec.size_m)
+    typer.echo(
+        f"wrote {out}: {width}x{height} px at {dpi} dpi; board {w_mm:.0f} x {h_mm:.0f} mm plus 10 mm margin, "
+        f"squares {1000 * spec.square_length_m:.1f} mm. Print at 100 % scale and measure a square."
+    )
+
+
+@calibrate_app.command("hand-eye")
+def calibrate_hand_eye(
+    mode: Annotated[str, typer.Option(help="eye-to-hand (fixed camera) or eye-in-hand (camera on the flange)")],
+    config: ConfigOption = DEFAULT_CONFIG,
+    board: BoardOption = DEFAULT_BOARD,
+    out: Annotated[Path | None, typer.Option(help="calibration YAML (default: calibration.file)")] = None,
+    yes: Annotated[bool, typer.Option("--yes", help="move without asking")] = False,
+) -> None:
+    """Drive the arm through safe views of the board, solve hand-eye, report residuals, store a good result."""
+    from rich.console import Console
+
+    from calibration.board import BoardError, load_board
+    from calibration.session import CalibrationRefused
+    from runtime.calibrate import run_hand_eye
+
+    modes = {"eye-to-hand": "eye_to_hand", "eye-in-hand": "eye_in_hand"}
+    if mode not in modes:
+        _fail(f"--mode must be one of {', '.join(modes)}, got {mode!r}")
+    profile = _load(config)
+    target = out or profile.calibration.file or Path(f"calibration/{modes[mode]}.yaml")
+    try:
+        spec = load_board(board)
+        code = run_hand_eye(
+            profile,
+            lambda overrides: _load(config, overrides),
+            spec,
+            modes[mode],
+            target,
+            (lambda _: True) if yes else (lambda question: typer.confirm(question, default=False)),
+            Console(),
+        )
+    except (BoardError, CalibrationRefused) as e:
+        _fail(str(e))
+    raise typer.Exit(code)
+
+
 @app.command()
 def run(
     config: ConfigOption = DEFAULT_CONFIG,

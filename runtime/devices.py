@@ -25,7 +25,7 @@ class Devices:
     camera: Camera
     arm: Arm
     gripper: Gripper
-    T_base_camera: np.ndarray
+    T_base_camera: np.ndarray | None  # None only when opened with_extrinsics=False (hand-eye calibration)
     world: object | None = None  # the SimWorld on the sim profile (ground truth for tests and verification)
 
 
@@ -39,10 +39,17 @@ def _sim_devices(profile: Profile) -> tuple[Camera, Arm, Gripper, object]:
 
 
 def _hardware_devices(profile: Profile) -> tuple[Camera, Arm, Gripper, None]:
-    raise DeviceSetupError(
-        f"robot.kind {profile.robot.kind!r} / camera.kind {profile.camera.kind!r}: the hardware drivers "
-        "(drivers/xarm7, drivers/femto_bolt) are not part of this build yet; use configs/sim.yaml"
-    )
+    """xArm 7 + gripper and Femto Bolt (their SDKs are imported on connect). Sim and hardware do not mix."""
+    if profile.robot.kind != "xarm7" or profile.camera.kind != "femto_bolt":
+        raise DeviceSetupError(
+            f"robot.kind {profile.robot.kind!r} with camera.kind {profile.camera.kind!r}: use both simulated "
+            "(sim/sim) or both real (xarm7/femto_bolt); the simulated camera renders the simulated arm only"
+        )
+    from drivers.femto_bolt import FemtoBolt
+    from drivers.xarm7 import XArm7, XArmGripper
+
+    arm = XArm7(profile.robot, profile.safety)
+    return FemtoBolt(profile.camera), arm, XArmGripper(arm), None
 
 
 def camera_extrinsics(profile: Profile, world: object | None) -> np.ndarray:
@@ -61,16 +68,17 @@ def camera_extrinsics(profile: Profile, world: object | None) -> np.ndarray:
             )
         return calibration.matrix
     if world is not None:
-        return world.T_world_camera.copy()
+        return world.camera_pose()
     raise DeviceSetupError("calibration.file is not set: run `goalvla calibrate hand-eye` and set it in the profile")
 
 
 @contextmanager
-def open_devices(profile: Profile) -> Iterator[Devices]:
-    """Connect camera, arm and gripper; on any failure close what was opened. Always closes (arm stopped)."""
+def open_devices(profile: Profile, *, with_extrinsics: bool = True) -> Iterator[Devices]:
+    """Connect camera, arm and gripper; on any failure close what was opened. Always closes (arm stopped).
+    with_extrinsics=False skips the calibration lookup (for the calibration itself)."""
     sim = profile.robot.kind == "sim" and profile.camera.kind == "sim"
     camera, arm, gripper, world = _sim_devices(profile) if sim else _hardware_devices(profile)
-    T_base_camera = camera_extrinsics(profile, world)
+    T_base_camera = camera_extrinsics(profile, world) if with_extrinsics else None
     with ExitStack() as stack:
         for device in (arm, gripper, camera):
             device.connect()
