@@ -60,7 +60,7 @@ class CoalBackend:
             if obj.prim is not None:
                 add_primitive(self.gmodel, robot, obj.prim)
             else:
-                tree = octree(scene.cloud_points, scene.cloud_resolution_m)
+                tree = octree(obj.points, scene.cloud_resolution_m)
                 self.gmodel.addGeometryObject(pin.GeometryObject(obj.name, 0, 0, pin.SE3.Identity(), tree))
         for a, b, _ in scene.pairs:
             self.gmodel.addCollisionPair(pin.CollisionPair(a, b))

@@ -1,8 +1,8 @@
 """Collision backend on python-fcl, answering exactly the questions of CoalBackend (same Scene), kept to measure
 the two side by side (bench/safety.py) and as a cross-check in the tests.
 
-python-fcl has no point-cloud octree constructor (fcl.OcTree takes serialised octomap bytes only), so the cloud
-becomes one fcl.Box per occupied cell of the same coal octree the coal backend uses. Its broad-phase managers
+python-fcl has no point-cloud octree constructor (fcl.OcTree takes serialised octomap bytes only), so each cloud
+chunk becomes one fcl.Box per occupied cell of the same coal octree the coal backend uses. Its broad-phase managers
 call back into Python for every candidate pair, so the broad phase for primitive pairs is a vectorised
 AABB test in numpy and only the overlapping pairs reach fcl.collide; each robot primitive near the cloud is
 tested against a DynamicAABBTree manager of the cells.
@@ -63,10 +63,10 @@ class FclBackend:
         n = len(scene.objects)
         self.objects: list[fcl.CollisionObject | None] = [None] * n
         self.center, self.half = np.zeros((n, 3)), np.zeros((n, 3))
-        self.cloud_index, self.cloud = -1, None
+        self.clouds: dict[int, fcl.DynamicAABBTreeCollisionManager] = {}
         for k, obj in enumerate(scene.objects):
             if obj.prim is None:
-                self._build_cloud(k, scene)
+                self._build_cloud(k, obj.points, scene.cloud_resolution_m)
                 continue
             self.objects[k] = fcl.CollisionObject(to_fcl(obj.prim), fcl.Transform())
             self.half[k] = _aabb_half_extent(obj.prim) if obj.prim.link == WORLD else obj.prim.bounding_radius()
@@ -75,22 +75,20 @@ class FclBackend:
                 self.objects[k].setTransform(fcl.Transform(T[:3, :3], T[:3, 3]))
                 self.center[k] = T[:3, 3]
         self.pairs = scene.pairs
-        prim_pairs = [(i, a, b) for i, (a, b, _) in enumerate(scene.pairs) if self.cloud_index not in (a, b)]
-        self.prim_pair_ids = np.array([p[0] for p in prim_pairs], dtype=int)
-        self.pa = np.array([p[1] for p in prim_pairs], dtype=int)
-        self.pb = np.array([p[2] for p in prim_pairs], dtype=int)
-        self.cloud_pairs = [(i, a) for i, (a, b, _) in enumerate(scene.pairs) if b == self.cloud_index]
+        # primitive pairs first, cloud pairs last: a hit on a primitive is found without touching the cloud
+        order = sorted(range(len(scene.pairs)), key=lambda i: scene.pairs[i][1] in self.clouds)
+        self.pair_ids = np.array(order, dtype=int)
+        self.pa = np.array([scene.pairs[i][0] for i in order], dtype=int)
+        self.pb = np.array([scene.pairs[i][1] for i in order], dtype=int)
         self.request = fcl.CollisionRequest()
 
-    def _build_cloud(self, k: int, scene: Scene) -> None:
-        cells = np.array([list(b)[:4] for b in octree(scene.cloud_points, scene.cloud_resolution_m).toBoxes()])
-        self.cloud = fcl.DynamicAABBTreeCollisionManager()
-        self.cloud.registerObjects(
-            [fcl.CollisionObject(fcl.Box(s, s, s), fcl.Transform(np.eye(3), c)) for *c, s in cells]
-        )
-        self.cloud.setup()
+    def _build_cloud(self, k: int, points: np.ndarray, resolution_m: float) -> None:
+        cells = np.array([list(b)[:4] for b in octree(points, resolution_m).toBoxes()])
+        manager = fcl.DynamicAABBTreeCollisionManager()
+        manager.registerObjects([fcl.CollisionObject(fcl.Box(s, s, s), fcl.Transform(np.eye(3), c)) for *c, s in cells])
+        manager.setup()
         lo, hi = cells[:, :3] - cells[:, 3:] / 2, cells[:, :3] + cells[:, 3:] / 2
-        self.cloud_index, self.center[k], self.half[k] = k, (lo.min(0) + hi.max(0)) / 2, (hi.max(0) - lo.min(0)) / 2
+        self.clouds[k], self.center[k], self.half[k] = manager, (lo.min(0) + hi.max(0)) / 2, (hi.max(0) - lo.min(0)) / 2
 
     def _place(self, q_full: np.ndarray) -> None:
         pin.updateGeometryPlacements(self.model, self.data, self.gmodel, self.gdata, q_full)
@@ -103,25 +101,21 @@ class FclBackend:
         gap = np.abs(self.center[self.pa] - self.center[self.pb]) <= self.half[self.pa] + self.half[self.pb]
         return np.flatnonzero(np.all(gap, axis=1))
 
-    def _cloud_hit(self, k: int) -> bool:
-        if np.any(np.abs(self.center[k] - self.center[self.cloud_index]) > self.half[k] + self.half[self.cloud_index]):
-            return False
+    def _touch(self, a: int, b: int) -> bool:
+        cloud = self.clouds.get(b)
+        if cloud is None:
+            return fcl.collide(self.objects[a], self.objects[b], self.request, fcl.CollisionResult()) > 0
         data = _FirstHit()
-        self.cloud.collide(self.objects[k], data, fcl.defaultCollisionCallback)
+        cloud.collide(self.objects[a], data, fcl.defaultCollisionCallback)
         return data.result.is_collision
 
     def _hits(self, stop_at_first: bool) -> list[int]:
         hits = []
         for c in self._candidates():
-            if fcl.collide(self.objects[self.pa[c]], self.objects[self.pb[c]], self.request, fcl.CollisionResult()):
-                hits.append(int(self.prim_pair_ids[c]))
+            if self._touch(self.pa[c], self.pb[c]):
+                hits.append(int(self.pair_ids[c]))
                 if stop_at_first:
-                    return hits
-        for pair_id, k in self.cloud_pairs:
-            if self._cloud_hit(k):
-                hits.append(pair_id)
-                if stop_at_first:
-                    return hits
+                    break
         return sorted(hits)
 
     def in_collision(self, q_full: np.ndarray) -> bool:

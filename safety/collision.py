@@ -167,7 +167,8 @@ class CollisionWorld:
     def check(self, q: np.ndarray, gripper_width_m: float | None = None) -> list[Contact]:
         """Every touching pair at q, with the violation kind."""
         objs, pairs = self.scene.objects, self.scene.pairs
-        return [
+        contacts = [
             Contact(pairs[k][2], objs[pairs[k][0]].name, objs[pairs[k][1]].name)
             for k in self._backend.colliding_pairs(self._full(q, gripper_width_m))
         ]
+        return list(dict.fromkeys(contacts))  # one entry per link even when several cloud chunks touch it

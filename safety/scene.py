@@ -19,6 +19,7 @@ from safety.world import keep_out_boxes, table_primitive, workspace_walls
 Role = Literal["robot", "held", "table", "workspace", "keep_out", "obstacle", "cloud"]
 CollisionKind = Literal["self_collision", "collision", "workspace", "keep_out"]
 CLOUD_NAME = "point_cloud"
+CLOUD_CHUNK_M = 0.3  # the cloud is split on this grid so each octree's box is tight and the broad phase prunes
 _KIND_OF_ROLE: dict[str, CollisionKind] = {
     "robot": "self_collision",
     "held": "self_collision",
@@ -34,15 +35,15 @@ _KIND_OF_ROLE: dict[str, CollisionKind] = {
 class SceneObject:
     name: str
     role: Role
-    prim: Primitive | None  # None for the point cloud
+    prim: Primitive | None  # None for a point-cloud chunk
     link: str = ""  # robot link for robot/held objects, "" for the world
+    points: np.ndarray | None = None  # the chunk's points (base frame) when prim is None
 
 
 @dataclass(frozen=True)
 class Scene:
     objects: tuple[SceneObject, ...]
     pairs: tuple[tuple[int, int, CollisionKind], ...]  # (object, object, violation kind)
-    cloud_points: np.ndarray | None
     cloud_resolution_m: float
 
 
@@ -69,7 +70,7 @@ def build_scene(
     world += [SceneObject(p.name, "keep_out", p) for p in keep_out_boxes(config)]
     world += [SceneObject(p.name, "obstacle", p) for p in obstacles]
     if points is not None and len(points):
-        world.append(SceneObject(CLOUD_NAME, "cloud", None))
+        world += [SceneObject(CLOUD_NAME, "cloud", None, points=chunk) for chunk in split_cloud(points, CLOUD_CHUNK_M)]
     objects += world
 
     pairs: list[tuple[int, int, CollisionKind]] = [
@@ -89,8 +90,18 @@ def build_scene(
         pairs += [
             (k, h, "self_collision") for k in range(len(robot_prims)) if not _holds(robot, objects[k].link, held.link)
         ]
-    cloud = None if points is None or not len(points) else np.asarray(points, dtype=np.float64)
-    return Scene(tuple(objects), tuple(pairs), cloud, config.cloud_voxel_m)
+    return Scene(tuple(objects), tuple(pairs), config.cloud_voxel_m)
+
+
+def split_cloud(points: np.ndarray, chunk_m: float) -> list[np.ndarray]:
+    """The points grouped by the chunk_m grid cell they fall in. One octree over a whole scene has a bounding box
+    that every link overlaps, so every check would traverse it (measured 36 vs 13 us per check)."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    _, cell = np.unique(np.floor(points / chunk_m).astype(np.int64), axis=0, return_inverse=True)
+    cell = cell.reshape(-1)
+    order = np.argsort(cell, kind="stable")
+    bounds = np.flatnonzero(np.diff(cell[order])) + 1
+    return np.split(points[order], bounds)
 
 
 def _holds(robot: RobotModel, link: str, tcp_link: str) -> bool:

@@ -77,3 +77,20 @@ def test_more_padding_checks_more_pairs(robot):
     prims = robot_primitives(robot.spec)
     assert len(checked_self_pairs(robot, prims, 0.0)) <= len(checked_self_pairs(robot, prims, 0.05))
     assert len(checked_self_pairs(robot, prims, 1.0)) == len(candidate_pairs(robot, prims))
+
+
+def test_cloud_chunks_partition_the_points_and_contacts_are_reported_once(robot):
+    from safety.scene import CLOUD_CHUNK_M, split_cloud
+
+    rng = np.random.default_rng(3)
+    points = rng.uniform([-0.5, -0.5, 0.0], [0.9, 0.5, 0.6], size=(5000, 3))
+    chunks = split_cloud(points, CLOUD_CHUNK_M)
+    assert sum(len(c) for c in chunks) == len(points) and len(chunks) > 10
+    np.testing.assert_allclose(np.sort(np.vstack(chunks), axis=0), np.sort(points, axis=0))
+    for c in chunks:
+        assert np.all(np.ptp(np.floor(c / CLOUD_CHUNK_M), axis=0) == 0)  # one grid cell each
+    tcp = robot.tcp_pose(robot.home_q)[:3, 3]
+    straddling = tcp + np.array([0.0, 0.0, 0.1]) + rng.uniform(-0.15, 0.15, size=(4000, 3))  # over several chunks
+    contacts = CollisionWorld(robot, points=straddling).check(robot.home_q)
+    cloud_hits = [c.first for c in contacts if c.second == "point_cloud"]
+    assert cloud_hits and len(cloud_hits) == len(set(cloud_hits))
