@@ -1,0 +1,111 @@
+"""The operator console in headless Chromium (Debian's chromium driven by Playwright): a run on the sim is
+started, confirmed, e-stopped and reset by clicking the page."""
+
+from __future__ import annotations
+
+import shutil
+import threading
+import urllib.error
+import urllib.request
+
+import pytest
+from runtime_helpers import free_port, wait_for
+from scripted_stages import ScriptedStages
+
+from runtime.config import load_profile
+from runtime.console.server import ConsoleServer
+from runtime.devices import open_devices
+from runtime.runner import Runtime
+from runtime.states import State
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--no-first-run",
+]
+playwright = pytest.importorskip("playwright.sync_api", reason="pip install playwright (browsers are not downloaded)")
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(shutil.which("chromium") is None, reason="apt-get install chromium")]
+
+
+@pytest.fixture
+def rig(sim_config_path):
+    profile = load_profile(
+        sim_config_path,
+        {"runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": "console_test"}},
+    )
+    stop = threading.Event()
+    with open_devices(profile) as devices:
+        stages = ScriptedStages()
+        rt = Runtime(profile, devices, stages, confirm="console")
+        server = serve_in_thread(rt, stop)
+        console = ConsoleServer(profile.runtime, "127.0.0.1", free_port()).start()
+        try:
+            yield rt, devices, stages, console
+        finally:
+            stop.set()
+            server.join(5)
+            console.close()
+            rt.close()
+
+
+def serve_in_thread(rt, stop):
+    th = threading.Thread(target=rt.serve, args=(stop,), daemon=True)
+    th.start()
+    return th
+
+
+@pytest.fixture
+def page():
+    with playwright.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=FLAGS, headless=True)
+        page = browser.new_page()
+        page.set_default_timeout(20000)
+        yield page
+        browser.close()
+
+
+def test_click_through_a_run_then_estop_and_reset(rig, page):
+    rt, devices, stages, console = rig
+    page.goto(console.url)
+    page.wait_for_selector("#conn.ok")
+    page.wait_for_function("document.getElementById('state').textContent === 'IDLE'")
+    assert page.locator("#joints").inner_text() != "—"  # live telemetry arrives
+
+    page.fill("#instruction", "move the arm a little")
+    page.click("#run-btn")
+    page.wait_for_selector("#confirm-btn:not([disabled])")
+    plan_id = rt.status.plan_id
+    assert plan_id and plan_id in page.locator("#confirm-btn").inner_text()
+    assert plan_id in page.locator("#confirm-what").inner_text()
+    assert "s," in page.locator("#plan-duration").inner_text() and "rad/s" in page.locator("#plan-speeds").inner_text()
+    assert stages.streamed == 0  # nothing moves before the confirmation
+    page.click("#confirm-btn")
+    page.wait_for_function("document.getElementById('state').textContent === 'DONE'")
+    assert stages.streamed > 0
+    page.wait_for_function("document.getElementById('img-capture').naturalWidth > 0")
+
+    stages.move_speed = 0.1  # a slow move, to press E-STOP during it
+    page.click("#run-btn")
+    page.wait_for_selector("#confirm-btn:not([disabled])")
+    page.click("#confirm-btn")
+    assert stages.executing.wait(10)
+    page.click("#estop-btn")
+    page.wait_for_function("document.getElementById('state').textContent === 'ESTOPPED'")
+    assert "console E-STOP button" in page.locator("#reason").inner_text()
+    assert rt.machine.state == State.ESTOPPED and devices.arm._stopped
+    page.click("#reset-btn")
+    page.wait_for_function("document.getElementById('state').textContent === 'IDLE'")
+    assert wait_for(lambda: not rt.arm_halted)
+
+
+def test_posts_without_the_console_header_are_refused(rig):
+    rt, _devices, _stages, console = rig
+    req = urllib.request.Request(console.url + "api/estop", data=b"{}", method="POST")
+    with pytest.raises(urllib.error.HTTPError) as err:
+        urllib.request.urlopen(req, timeout=5)
+    assert err.value.code == 403
+    assert rt.machine.state == State.IDLE
