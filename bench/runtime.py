@@ -1,0 +1,206 @@
+"""Runtime benchmarks: e-stop latency, and full `goalvla run`s on the sim with the offline backends.
+
+1. E-stop latency: a separate process (its own Zenoh session, like `goalvla estop`) publishes e-stop messages to
+   the runtime's supervisor, which drives the simulated arm (physics running in real time). Latency = the arm's
+   stop() call minus the message's send stamp (same machine clock). Target p99 <= 20 ms over >= 200 trials.
+2. Runs: the same code path as `goalvla run --yes` (profile, devices, supervisor, stages, record), in this
+   process so module imports are paid once, over seeded scenes and instructions across the task scenes.
+   Success = exit status DONE (verified). Target: median wall time per run <= 30 s on the 2-core machine.
+
+    python bench/runtime.py [--quick] --out RESULT.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+# bench/runtime.py would shadow the runtime package: drop this folder from the import path
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+
+import numpy as np  # noqa: E402
+from rich.console import Console  # noqa: E402
+from rich.table import Table  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+CONFIG = REPO / "configs" / "sim.yaml"
+TARGETS = {"estop_latency_p99_ms": 20.0, "run_wall_s_median": 30.0}
+# (scene, instruction) pairs; scenes missing from configs/scenes are reported as skipped
+TASKS = [
+    ("tabletop", "put the red block on the white plate"),
+    ("tabletop", "place the blue block next to the green cylinder"),
+    ("tabletop", "move the green cylinder to the left of the red block"),
+    ("tomato_pan", "put the red tomato in the pan"),
+    ("block_platform", "place the block on the platform"),
+    ("bottle_stand", "stand the bottle up"),
+    ("box_lid", "close the box"),
+]
+SENDER = """
+import sys, time
+from runtime.bus import Bus
+from runtime.config import ZenohConfig
+from runtime.messages import EStop
+bus = Bus(ZenohConfig(endpoint=sys.argv[1]), "bench", "connect")
+n, gap = int(sys.argv[2]), float(sys.argv[3])
+time.sleep(1.0)  # let the session connect
+for i in range(n):
+    bus.publish(bus.keys.estop, EStop(stamp_s=time.time(), source="bench", reason=f"trial {i}"))
+    time.sleep(gap)
+time.sleep(0.5)
+bus.close()
+"""
+
+
+def free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def estop_latency(trials: int) -> dict:
+    from runtime.bus import Bus
+    from runtime.config import RuntimeConfig, ZenohConfig, load_profile
+    from runtime.devices import open_devices
+    from runtime.states import StateMachine
+    from runtime.supervisor import Supervisor
+
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    profile = load_profile(CONFIG)
+    stops: list[float] = []
+    sent: list[float] = []
+    with open_devices(profile) as devices:
+        arm = devices.arm
+        real_stop = arm.stop
+
+        def timed_stop() -> None:
+            stops.append(time.time())
+            real_stop()
+
+        arm.stop = timed_stop  # the bench's probe: the instant the supervisor commands the stop
+        cfg = RuntimeConfig(robot_id="bench", zenoh=ZenohConfig(endpoint=endpoint))
+        bus = Bus(cfg.zenoh, cfg.robot_id, "listen")
+        from runtime.messages import EStop
+
+        bus.subscribe(bus.keys.estop, EStop, lambda k, m: sent.append(m.stamp_s))
+        machine = StateMachine(cfg.budgets_s)
+        sup = Supervisor(machine, bus, arm, None, cfg).start()
+        subprocess.run([sys.executable, "-c", SENDER, endpoint, str(trials), "0.02"], check=True, cwd=REPO)
+        time.sleep(0.2)
+        sup.close()
+        bus.close()
+    n = min(len(stops), len(sent))
+    lat_ms = (np.array(stops[:n]) - np.array(sorted(sent)[:n])) * 1000.0
+    return {
+        "trials": trials,
+        "received": len(sent),
+        "stops": len(stops),
+        "p50_ms": float(np.percentile(lat_ms, 50)),
+        "p99_ms": float(np.percentile(lat_ms, 99)),
+        "max_ms": float(lat_ms.max()),
+    }
+
+
+def runs(count: int, out_dir: Path) -> dict:
+    from runtime.config import load_profile
+    from runtime.devices import open_devices
+    from runtime.runner import Runtime
+    from runtime.stages import PipelineStages
+
+    scenes_dir = REPO / "configs" / "scenes"
+    tasks = [t for t in TASKS if (scenes_dir / f"{t[0]}.yaml").exists()]
+    skipped = sorted({t[0] for t in TASKS} - {t[0] for t in tasks})
+    stages = PipelineStages()  # backends built once, like a long-running runtime
+    results = []
+    for i in range(count):
+        scene, instruction = tasks[i % len(tasks)]
+        seed = 100 + i
+        profile = load_profile(
+            CONFIG,
+            {"sim": {"scene": scene, "seed": seed}, "runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}}},
+        )
+        t0 = time.perf_counter()
+        with open_devices(profile) as devices, Runtime(profile, devices, stages, confirm="yes") as rt:
+            result = rt.run(instruction, out_dir / f"run_{i:03d}")
+        wall = time.perf_counter() - t0
+        results.append(
+            {
+                "scene": scene,
+                "seed": seed,
+                "instruction": instruction,
+                "status": result.status.value,
+                "reason": result.reason,
+                "wall_s": wall,
+                "stage_seconds": result.summary.get("stage_seconds", {}),
+            }
+        )
+        Console(stderr=True).print(
+            f"[{i + 1}/{count}] {scene} seed {seed}: {result.status.value} {wall:.1f} s  {result.reason[:100]}"
+        )
+    walls = [r["wall_s"] for r in results if r["status"] == "DONE"]  # a run that stopped early is not "fast"
+    return {
+        "count": count,
+        "skipped_scenes": skipped,
+        "success_rate": sum(r["status"] == "DONE" for r in results) / max(1, len(results)),
+        "wall_s_median": statistics.median(walls) if walls else None,  # successful runs only
+        "wall_s_max": max(walls) if walls else None,
+        "wall_s_median_all": statistics.median(r["wall_s"] for r in results) if results else None,
+        "runs": results,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="50 e-stop trials and 2 runs (smoke check)")
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--runs", type=int, default=None, help="number of runs (default 30, quick 2)")
+    args = parser.parse_args()
+    console = Console()
+    estop = estop_latency(50 if args.quick else 200)
+    with tempfile.TemporaryDirectory(prefix="goalvla-bench-") as tmp:
+        run_stats = runs(args.runs or (2 if args.quick else 30), Path(tmp))
+    result = {
+        "quick": args.quick,
+        "estop_latency": estop,
+        "runs": run_stats,
+        "targets": TARGETS,
+        "met": {
+            "estop_latency_p99_ms": estop["p99_ms"] <= TARGETS["estop_latency_p99_ms"],
+            "run_wall_s_median": run_stats["wall_s_median"] is not None
+            and run_stats["wall_s_median"] <= TARGETS["run_wall_s_median"],
+        },
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(result, indent=2))
+    table = Table(title="runtime benchmark")
+    for col in ("figure", "value", "target", "met"):
+        table.add_column(col)
+    table.add_row("e-stop latency p50", f"{estop['p50_ms']:.2f} ms", "", "")
+    table.add_row(
+        "e-stop latency p99", f"{estop['p99_ms']:.2f} ms", "<= 20 ms", str(result["met"]["estop_latency_p99_ms"])
+    )
+    table.add_row("e-stop trials (received/stops)", f"{estop['received']}/{estop['stops']}", ">= 200", "")
+    median = run_stats["wall_s_median"]
+    table.add_row("runs", str(run_stats["count"]), ">= 30", "")
+    table.add_row("run success rate (verified)", f"{run_stats['success_rate']:.0%}", "", "")
+    table.add_row(
+        "run wall time median",
+        "n/a" if median is None else f"{median:.1f} s",
+        "<= 30 s",
+        str(result["met"]["run_wall_s_median"]),
+    )
+    if run_stats["skipped_scenes"]:
+        table.add_row("skipped scenes (not in configs/scenes)", ", ".join(run_stats["skipped_scenes"]), "", "")
+    console.print(table)
+    console.print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
