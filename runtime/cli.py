@@ -200,5 +200,16 @@ def console(
     serve_console(profile.runtime, host, port)
 
 
+@app.command()
+def doctor(config: ConfigOption = DEFAULT_CONFIG) -> None:
+    """Bring-up checklist (packages, camera, arm, controller safety, e-stop over Zenoh, calibration); exit 1 on a
+    failure."""
+    from rich.console import Console
+
+    from runtime.doctor import run_doctor
+
+    raise typer.Exit(run_doctor(_load(config), Console()))
+
+
 if __name__ == "__main__":
     app()

@@ -1,9 +1,10 @@
 """Fake pyorbbecsdk objects reproducing what the Femto Bolt driver relies on, failures included.
 
 FakeOrbbecSDK() stands in for the module: Context, Pipeline, Config, AlignFilter and the enums. Frames come from
-`frames`, a list consumed by wait_for_frames (None entries are timeouts); make_frameset builds them with chosen
-device/system timestamps. Depth is uint16 with a depth scale, colour RGB or MJPG bytes. Knobs: no device,
-several devices, access-denied on open (missing udev rules), depth-engine failure on start.
+`frames`, a list consumed by wait_for_frames (None entries are timeouts), or from the `stream` iterator;
+make_frameset builds them with chosen device/system timestamps. Depth is uint16 with a depth scale, colour RGB or
+MJPG bytes. Knobs: no device, several devices, access-denied on open (missing udev rules), depth-engine failure
+on start.
 """
 
 from __future__ import annotations
@@ -134,6 +135,7 @@ class FakeOrbbecSDK:
         self.open_error: Exception | None = None
         self.start_error: Exception | None = None
         self.frames: list = []
+        self.stream = None  # optional iterator: framesets made when asked for (fresh host timestamps)
         self.log_calls: list = []
         self.pipelines: list = []
         self.colour_profiles = [VideoProfile(*colour_size, 30, colour_fmt), VideoProfile(1920, 1080, 30, "MJPG")]
@@ -196,6 +198,8 @@ class FakeOrbbecSDK:
                 self.stopped = True
 
             def wait_for_frames(self, timeout_ms):
+                if sdk.stream is not None:
+                    return next(sdk.stream)
                 if not sdk.frames:
                     time.sleep(min(timeout_ms, 5) / 1000)
                     return None
