@@ -71,7 +71,9 @@ class OpenAIEditor(ImageEditor):
         image = ("initial.png", png_bytes(request.rgb), "image/png")
         images = self.api.client.images
         reply = self.api.call(images.edit, what, model=self.config.image_model, image=image, prompt=request.prompt)
-        data = list(getattr(reply, "data", None) or [])
+        if not hasattr(reply, "data"):  # the SDK hands back non-JSON bodies as they are
+            raise ProviderError("malformed", f"{what}: reply is not an image response", raw=str(reply)[:2000])
+        data = list(reply.data or [])
         b64 = getattr(data[0], "b64_json", None) if data else None
         raw = f"{len(data)} image(s); revised_prompt={getattr(data[0], 'revised_prompt', None) if data else None!r}"
         if not b64:

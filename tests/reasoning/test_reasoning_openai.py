@@ -46,10 +46,12 @@ def test_reply_without_image_is_a_recorded_failure(fake_server, config, scene_rg
 
 
 def test_malformed_body_is_a_clear_failure(fake_server, config, scene_rgb):
-    fake_server.script(Reply(200, b"<html>oops</html>", content_type="text/html"))
-    with pytest.raises(ProviderError) as e:
-        OpenAIEditor(config).edit(EditRequest(scene_rgb, "p"))
-    assert e.value.kind in ("malformed", "no_image")
+    fake_server.script(Reply(200, b"<html>oops</html>", content_type="text/html"), Reply(200, b"{not json"))
+    editor = OpenAIEditor(config)
+    for _ in range(2):
+        with pytest.raises(ProviderError) as e:
+            editor.edit(EditRequest(scene_rgb, "p"))
+        assert e.value.kind == "malformed"
 
 
 def test_timeout(fake_server, config, scene_rgb):
