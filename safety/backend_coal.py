@@ -75,8 +75,3 @@ class CoalBackend:
         """Indices (into scene.pairs) of every colliding pair."""
         pin.computeCollisions(self.model, self.data, self.gmodel, self.gdata, q_full, False)
         return [k for k, r in enumerate(self.gdata.collisionResults) if r.isCollision()]
-
-    def distances(self, q_full: np.ndarray) -> np.ndarray:
-        """Signed distance [m] of every pair (negative: penetration depth)."""
-        pin.computeDistances(self.model, self.data, self.gmodel, self.gdata, q_full)
-        return np.array([r.min_distance for r in self.gdata.distanceResults])
