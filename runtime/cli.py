@@ -157,6 +157,10 @@ def run(
     yes: Annotated[bool, typer.Option("--yes", help="approve the plan without asking; e-stop still works")] = False,
     record: Annotated[Path | None, typer.Option(help="run folder (default: runtime.runs_dir/<run id>)")] = None,
     serve: Annotated[bool, typer.Option("--serve", help="stay up and run instructions sent from the console")] = False,
+    allow_unvalidated_goal: Annotated[
+        bool,
+        typer.Option("--allow-unvalidated-goal", help="operator override: use the last goal image none validated"),
+    ] = False,
 ) -> None:
     """One supervised run: capture, reason, ground, plan, gate, confirm, execute, verify.
 
@@ -166,7 +170,10 @@ def run(
     if serve == (instruction is not None):
         _fail("give --instruction TEXT for one run, or --serve to take instructions from the console")
     sim = {k: v for k, v in (("scene", scene), ("seed", seed)) if v is not None}
-    profile = _load(config, {"sim": sim} if sim else None)
+    overrides: dict = {"sim": sim} if sim else {}
+    if allow_unvalidated_goal:
+        overrides["pipeline"] = {"allow_unvalidated_goal": True}
+    profile = _load(config, overrides or None)
     if sim and profile.robot.kind != "sim":
         _fail(f"--scene/--seed only apply to sim profiles; {config} drives robot.kind {profile.robot.kind!r}")
     raise typer.Exit(run_command(profile, instruction, yes, record, serve))
