@@ -1,10 +1,10 @@
 """`goalvla calibrate hand-eye`: plan safe views, drive the arm through them, detect the board, solve, judge.
 
-Every move is a minimum-jerk joint path from the measured position, checked by the safety gate (limits, speeds,
-per-tick step, workspace, self and scene collision with the board as a held object) before a single set-point
-is streamed; a refused move stops the procedure. The arm's measured joints (after settling) give T_base_flange,
-so the stored result does not depend on the controller's TCP settings. Nothing here prompts: the caller
-confirms the plan (UI lives in the runtime).
+Every move is a minimum-jerk joint path from the measured position, approved by the safety gate (limits, speeds,
+per-tick step, workspace, self and scene collision with the board as a held object) and streamed by the motion
+executor; a refused or interrupted move stops the procedure. The arm's measured joints (after settling) give
+T_base_flange, so the stored result does not depend on the controller's TCP settings. Nothing here prompts: the
+caller confirms the plan (UI lives in the runtime).
 """
 
 from __future__ import annotations
@@ -23,9 +23,13 @@ from calibration.handeye import HandEyeResult, Mode, rotation_diversity_deg, sol
 from calibration.poses import PosePlan, board_centre, eye_in_hand_targets, eye_to_hand_targets, solve_poses
 from calibration.store import HandEyeCalibration
 from drivers.interfaces import Arm, Camera
+from motion.approval import ApprovedTrajectory, GateRefused, approve
+from motion.clock import Clock, WallClock
+from motion.executor import Executor, ExecutorConfig
 from motion.interpolate import minimum_jerk_path
+from motion.limits import MotionLimits
 from safety.collision import CollisionWorld
-from safety.gate import check_configuration, validate
+from safety.gate import check_configuration
 from safety.geometry import Primitive
 from safety.trajectory import JointTrajectory
 
@@ -34,20 +38,6 @@ CANDIDATES_PER_VIEW = 4  # random targets tried per wanted view (many fail IK or
 
 class CalibrationRefused(RuntimeError):
     """The procedure stopped or the result is not good enough; the message says why."""
-
-
-class Clock:
-    """Wall clock by default; tests pass one that steps a non-realtime simulation."""
-
-    def now(self) -> float:
-        import time
-
-        return time.perf_counter()
-
-    def sleep_until(self, t: float) -> None:
-        import time
-
-        time.sleep(max(0.0, t - time.perf_counter()))
 
 
 @dataclass(frozen=True)
@@ -154,48 +144,51 @@ def plan_views(
 
 
 class GatedMover:
-    """Joint moves the gate has approved, streamed at the control rate. A direct move the gate refuses is tried
-    again through the home posture (two gated moves); if that is refused too, the move is impossible."""
+    """Joint moves approved by the safety gate and streamed by the motion executor (tracking error, stale state
+    and late calls supervised there). A direct move the gate refuses is tried through the home posture (two
+    approved moves); if that is refused too, the move is impossible."""
 
     def __init__(
-        self, arm: Arm, world: CollisionWorld, rate_hz: float, max_velocity_rad_s: float, clock: Clock | None = None
+        self,
+        arm: Arm,
+        world: CollisionWorld,
+        config: ExecutorConfig,
+        limits: MotionLimits,
+        max_velocity_rad_s: float,
+        clock: Clock | None = None,
     ) -> None:
         self.arm, self.world = arm, world
-        self.rate_hz, self.max_velocity = rate_hz, max_velocity_rad_s
-        self.clock = clock or Clock()
+        self.rate_hz, self.max_velocity = config.rate_hz, max_velocity_rad_s
+        self.clock = clock or WallClock()
+        self.executor = Executor(arm, config, limits, clock=self.clock)
         self.via = world.robot.home_q
 
-    def _checked(self, q_from: np.ndarray, q_to: np.ndarray) -> tuple[JointTrajectory | None, str]:
+    def _approved(self, q_from: np.ndarray, q_to: np.ndarray) -> tuple[ApprovedTrajectory | None, str]:
         path = minimum_jerk_path(q_from, q_to, self.rate_hz, self.max_velocity)
         trajectory = JointTrajectory(self.arm.joint_names, 1.0 / self.rate_hz, np.vstack([q_from, path]))
-        report = validate(trajectory, self.world, q_current=q_from)
-        return (trajectory, "") if report.ok else (None, report.reason())
+        try:
+            return approve(trajectory, self.world, q_current=q_from), ""
+        except GateRefused as e:
+            return None, e.report.reason()
 
-    def route(self, q_from: np.ndarray, q_to: np.ndarray) -> list[JointTrajectory]:
+    def route(self, q_from: np.ndarray, q_to: np.ndarray) -> list[ApprovedTrajectory]:
         """Gate-approved trajectories from q_from to q_to; CalibrationRefused with the gate's reason if none."""
-        direct, reason = self._checked(q_from, q_to)
+        direct, reason = self._approved(q_from, q_to)
         if direct is not None:
             return [direct]
-        first, _ = self._checked(q_from, self.via)
-        second, _ = self._checked(self.via, q_to) if first is not None else (None, "")
+        first, _ = self._approved(q_from, self.via)
+        second, _ = self._approved(self.via, q_to) if first is not None else (None, "")
         if first is None or second is None:
             raise CalibrationRefused(f"the safety gate refused the move: {reason}")
         return [first, second]
 
     def move_to(self, q_to: np.ndarray, settle_s: float = 0.0) -> None:
-        """Route from the measured position, stream it, wait settle_s. Any failure stops the arm."""
-        trajectories = self.route(self.arm.read_state().q, q_to)
-        t = self.clock.now()
-        try:
-            for trajectory in trajectories:
-                for q in trajectory.positions[1:]:
-                    self.arm.servo(q)
-                    t += trajectory.dt
-                    self.clock.sleep_until(t)
-        except BaseException:
-            self.arm.stop()
-            raise
-        self.clock.sleep_until(t + settle_s)
+        """Route from the measured position, execute, wait settle_s; a move that does not complete stops here."""
+        for approved in self.route(self.arm.read_state().q, q_to):
+            report = self.executor.execute(approved)
+            if report.status != "completed":
+                raise CalibrationRefused(f"calibration move {report.status}: {report.reason}")
+        self.clock.sleep_until(self.clock.now() + settle_s)
 
 
 def reachable_views(plan: PosePlan, mover: GatedMover, q_start: np.ndarray) -> PosePlan:

@@ -31,6 +31,8 @@ from calibration.session import (
     plan_views,
 )
 from calibration.store import save_calibration
+from motion.executor import ExecutorConfig
+from motion.limits import MotionLimits
 from runtime.config import Profile
 from runtime.devices import open_devices
 from safety.collision import CollisionWorld
@@ -106,7 +108,10 @@ def run_hand_eye(
             if mode == "eye_to_hand":
                 world.set_held_object(board_as_held_object(board, geometry, world))
             speed = cfg.speed_fraction * profile.safety.max_joint_velocity_rad_s
-            mover = GatedMover(devices.arm, world, profile.robot.control_rate_hz, speed)
+            limits = MotionLimits.from_config(profile.safety, world.robot.spec)
+            mover = GatedMover(
+                devices.arm, world, ExecutorConfig.from_configs(profile.robot, profile.safety), limits, speed
+            )
             q_start = devices.arm.read_state().q
             console.print(f"planning {cfg.poses} views ({mode.replace('_', '-')}) ...")
             plan = plan_views(mode, board, cfg, geometry, mover, q_start)

@@ -23,6 +23,8 @@ from calibration.session import (
     plan_views,
 )
 from drivers.sim import SimArm, SimCamera, SimWorld
+from motion.executor import ExecutorConfig
+from motion.limits import MotionLimits
 from safety.collision import CollisionWorld
 from safety.robot_model import RobotModel
 
@@ -79,7 +81,9 @@ def test_recovers_true_extrinsics(sim_profile_with, tmp_path, mode):
     if mode == "eye_to_hand":
         safety_world.set_held_object(board_as_held_object(board, geometry, safety_world))
     with arm, camera:
-        mover = GatedMover(arm, safety_world, 100.0, 0.8, SteppedClock(world))
+        config = ExecutorConfig.from_configs(profile.robot, profile.safety)
+        limits = MotionLimits.from_config(profile.safety, world.spec)
+        mover = GatedMover(arm, safety_world, config, limits, 0.8, SteppedClock(world))
         plan = plan_views(mode, board, plan_cfg, geometry, mover, arm.read_state().q)
         assert len(plan.q) == N_VIEWS
         A, views = ViewCollector(mover, camera, board, plan_cfg.settle_s, log=lambda s: None).collect(plan)
