@@ -17,7 +17,7 @@ import numpy as np
 
 from runtime.context import RunContext, StageError, StageUnavailable, Verification
 from runtime.messages import PlanSummary
-from runtime.verify import compare, object_centre
+from runtime.verify import compare, object_centre, rotation_deg
 
 log = logging.getLogger(__name__)
 
@@ -117,49 +117,71 @@ class PipelineStages:
 
     # -- planning -----------------------------------------------------------------------------------------
     def plan(self, ctx: RunContext) -> PlanSummary:
+        contact_poses = require("contact", "pipeline.contact", "plan_contact")
         plan_manipulation = require("planning", "runtime.manipulation", "plan_manipulation")
-        result = plan_manipulation(ctx)
-        ctx.trajectory = result.approved
-        ctx.contact = result.contact
-        summary = PlanSummary(
+        draw_tcp_poses = require("planning", "runtime.overlay", "draw_tcp_poses")
+        poses = contact_poses(ctx)
+        plan = plan_manipulation(ctx, poses)
+        ctx.trajectory = plan
+        frame = ctx.frame0
+        ctx.record.image("plan", draw_tcp_poses(frame.rgb, frame.intrinsics, frame.T_base_camera, plan.tcp_waypoints))
+        motion = ctx.motion.T_base if ctx.motion is not None else np.eye(4)
+        return PlanSummary(
             stamp_s=time.time(),
             plan_id=uuid.uuid4().hex[:10],
             run_id=ctx.record.run_id,
             instruction=ctx.instruction,
-            mode=result.mode,
-            duration_s=result.duration_s,
-            peak_joint_speed_rad_s=result.peak_joint_speed_rad_s,
-            min_clearance_m=result.min_clearance_m,
-            samples=result.samples,
+            mode=poses.mode,
+            duration_s=plan.duration_s,
+            peak_joint_speed_rad_s=plan.peak_joint_speed_rad_s,
+            min_clearance_m=None,
+            samples=plan.samples,
             gate_ok=True,
-            object_motion=ctx.extras.get("object_motion_base", {}),
+            object_motion={
+                "translation_m": np.round(motion[:3, 3], 3).tolist(),
+                "rotation_deg": round(rotation_deg(motion[:3, :3]), 1),
+            },
         )
-        return summary
 
     # -- execution ----------------------------------------------------------------------------------------
     def execute(self, ctx: RunContext) -> None:
-        Executor, ExecutorConfig = require("execution", "motion.executor", "Executor", "ExecutorConfig")
+        Executor, ExecutorConfig, ExecutionRefused = require(
+            "execution", "motion.executor", "Executor", "ExecutorConfig", "ExecutionRefused"
+        )
         MotionLimits = require("execution", "motion.limits", "MotionLimits")
-        dev, profile = ctx.devices, ctx.profile
-        limits = MotionLimits.from_config(profile.safety, dev.world.spec if dev.world else _robot_spec())
+        dev, profile, plan = ctx.devices, ctx.profile, ctx.trajectory
+        limits = MotionLimits.from_config(profile.safety, _robot_spec())
         executor = Executor(dev.arm, ExecutorConfig.from_configs(profile.robot, profile.safety), limits, dev.gripper)
         ctx.extras["executor"] = executor
-        report = executor.execute(ctx.trajectory)
-        ctx.record.note(
-            execution={
-                "status": report.status,
-                "reason": report.reason,
-                "ticks": report.ticks,
-                "late_ticks": report.late_ticks,
-                "jitter_p99_s": report.jitter.p99_s,
-                "max_tracking_error_rad": report.max_tracking_error_rad,
-                "gripper": [{"kind": g.event.kind, "width_m": g.width_m, "grasped": g.grasped} for g in report.gripper],
-            }
-        )
-        if report.status != "completed":
-            raise StageError(f"execution {report.status}: {report.reason}")
-        if any(g.event.kind == "close" and g.grasped is False for g in report.gripper):
-            raise StageError("the gripper closed on nothing: the object was not grasped")
+        reports = []
+        for name, approved in zip(plan.phase_names, plan.phases, strict=True):
+            if ctx.cancel.is_set():
+                return
+            try:
+                report = executor.execute(approved)
+            except ExecutionRefused as e:
+                raise StageError(f"{name} phase refused by the executor: {e}") from None
+            reports.append(
+                {
+                    "phase": name,
+                    "status": report.status,
+                    "reason": report.reason,
+                    "ticks": report.ticks,
+                    "late_ticks": report.late_ticks,
+                    "jitter_p99_s": report.jitter.p99_s,
+                    "max_tracking_error_rad": report.max_tracking_error_rad,
+                    "gripper": [
+                        {"kind": g.event.kind, "width_m": g.width_m, "grasped": g.grasped} for g in report.gripper
+                    ],
+                }
+            )
+            ctx.record.note(execution=reports)
+            if report.status != "completed":
+                raise StageError(f"{name} phase {report.status}: {report.reason}")
+            if plan.poses.mode == "grasp" and any(
+                g.event.kind == "close" and g.grasped is False for g in report.gripper
+            ):
+                raise StageError(f"{name} phase: the gripper closed on nothing (object not grasped)")
 
     def stop_motion(self, ctx: RunContext, reason: str, graceful: bool) -> None:
         executor = ctx.extras.get("executor")
