@@ -67,27 +67,26 @@ def _attempt(robot: RobotModel, fid: int, target: pin.SE3, q0: np.ndarray, q_pre
     eye6 = np.eye(6)
     best = (np.inf, qf[:n].copy(), np.inf, np.inf)
     for it in range(1, s.max_iterations + 1):
-        pin.forwardKinematics(model, data, qf)
+        pin.computeJointJacobians(model, data, qf)  # forward kinematics + joint Jacobians in one pass
         pin.updateFramePlacement(model, data, fid)
         err, cMt = _pose_error(data, fid, target)
-        pos_err, rot_err = (
-            float(np.linalg.norm(data.oMf[fid].translation - target.translation)),
-            float(np.linalg.norm(err[3:])),
-        )
+        pos_err = float(np.linalg.norm(data.oMf[fid].translation - target.translation))
+        rot_err = float(np.linalg.norm(err[3:]))
         score = pos_err + 0.1 * rot_err
         if score < best[0]:
             best = (score, qf[:n].copy(), pos_err, rot_err)
         if pos_err < s.position_tolerance_m and rot_err < s.rotation_tolerance_rad:
             return True, best[1], pos_err, rot_err, it
-        J = pin.Jlog6(cMt.inverse()) @ pin.computeFrameJacobian(model, data, qf, fid, pin.ReferenceFrame.LOCAL)[:, :n]
+        J = pin.Jlog6(cMt.inverse()) @ pin.getFrameJacobian(model, data, fid, pin.ReferenceFrame.LOCAL)[:, :n]
         lam2 = 1e-8 + 1e-3 * min(1.0, float(err @ err))
-        JJt_inv = np.linalg.inv(J @ J.T + lam2 * eye6)
-        J_pinv = J.T @ JJt_inv
-        dq = J_pinv @ err + (np.eye(n) - J_pinv @ J) @ (s.posture_gain * (q_pref - qf[:n]))
+        posture = s.posture_gain * (q_pref - qf[:n])
+        # dq = J+ err + (I - J+ J) posture with J+ = J^T (J J^T + lam2 I)^-1: one solve for both right-hand sides
+        y = np.linalg.solve(J @ J.T + lam2 * eye6, np.column_stack([err, J @ posture]))
+        dq = J.T @ (y[:, 0] - y[:, 1]) + posture
         peak = np.max(np.abs(dq))
         if peak > s.max_step_rad:
             dq *= s.max_step_rad / peak
-        qf[:n] = np.clip(qf[:n] + dq, lo, hi)
+        qf[:n] = np.minimum(np.maximum(qf[:n] + dq, lo), hi)
     return False, best[1], best[2], best[3], s.max_iterations
 
 
