@@ -1,10 +1,10 @@
 """Collision-free joint-space paths with OMPL, checked against the safety collision world.
 
 A direct straight-line move is tried first. Otherwise an OMPL planner (RRTConnect by default) searches within
-the joint limits minus the safety margin, with the collision world's `in_collision` as validity checker and
-motion checks every `resolution_rad` of joint motion (OMPL's L2 segment length bounds every joint's motion).
-The solution is shortcut, then every segment of the final path is re-checked densely by this module's own check:
-a simplified path that clips an obstacle is never returned.
+the joint limits minus the safety margin, with the collision world's `in_collision` as validity checker. The
+search checks motions coarsely (search_resolution_rad, halved on each retry); the solution is then shortcut
+greedily with this module's own dense check (resolution_rad, coarse-to-fine order), so every segment of the
+returned path has passed the dense check and a simplified path that clips an obstacle is never returned.
 """
 
 from __future__ import annotations
@@ -36,8 +36,9 @@ class PlannerConfig:
     planner: PlannerName = "RRTConnect"
     timeout_s: float = 1.0  # search budget per attempt
     attempts: int = 3  # fresh searches before giving up
-    simplify_s: float = 0.02  # shortcutting budget
-    resolution_rad: float = 0.005  # largest joint motion between collision checks
+    range_rad: float | None = 1.0  # longest tree extension (planners with a range); None: OMPL's default
+    search_resolution_rad: float = 0.05  # motion-check step during the search (halved on each retry)
+    resolution_rad: float = 0.005  # largest joint motion between the final path's collision checks
     window_rad: float = np.pi  # continuous joints are searched within this of the start/goal range
 
 
@@ -63,9 +64,10 @@ class Planner:
         return bool(inside) and not self.world.in_collision(q)
 
     def segment_free(self, qa: np.ndarray, qb: np.ndarray) -> bool:
-        """Every configuration on the straight line qa-qb, checked every resolution_rad of joint motion."""
+        """Every configuration on the straight line qa-qb, checked every resolution_rad of joint motion (coarse
+        to fine, so a blocked line is usually rejected after a few checks)."""
         n = max(1, int(np.ceil(np.max(np.abs(qb - qa)) / self.config.resolution_rad)))
-        return all(self.valid(qa + (qb - qa) * (k / n)) for k in range(n + 1))
+        return all(self.valid(qa + (qb - qa) * (k / n)) for k in coarse_to_fine(n))
 
     def path_free(self, waypoints: np.ndarray) -> bool:
         return all(self.segment_free(a, b) for a, b in pairwise(waypoints))
@@ -90,8 +92,9 @@ class Planner:
                 raise PlanningError(self.why_invalid(q, what))
         if self.segment_free(q_start, q_goal):
             return JointPath(np.array([q_start, q_goal]), "direct", time.perf_counter() - t0)
-        for _ in range(self.config.attempts):
-            waypoints = self._search(q_start, q_goal)
+        for attempt in range(self.config.attempts):
+            step = max(self.config.search_resolution_rad / 2**attempt, self.config.resolution_rad)
+            waypoints = self._search(q_start, q_goal, step)
             if waypoints is not None:
                 return JointPath(waypoints, self.config.planner, time.perf_counter() - t0)
         raise PlanningError(
@@ -106,7 +109,7 @@ class Planner:
         hi = np.minimum(self.limits.upper, np.maximum(q_start, q_goal) + self.config.window_rad)
         return lo, hi
 
-    def _search(self, q_start: np.ndarray, q_goal: np.ndarray) -> np.ndarray | None:
+    def _search(self, q_start: np.ndarray, q_goal: np.ndarray, step_rad: float) -> np.ndarray | None:
         space = ob.RealVectorStateSpace(self.dof)
         lo, hi = self._bounds(q_start, q_goal)
         bounds = ob.RealVectorBounds(self.dof)
@@ -114,7 +117,7 @@ class Planner:
             bounds.setLow(j, float(lo[j]))
             bounds.setHigh(j, float(hi[j]))
         space.setBounds(bounds)
-        space.setLongestValidSegmentFraction(self.config.resolution_rad / space.getMaximumExtent())
+        space.setLongestValidSegmentFraction(step_rad / space.getMaximumExtent())
         setup = og.SimpleSetup(space)
         dof, in_collision = self.dof, self.world.in_collision
         setup.setStateValidityChecker(lambda s: not in_collision(np.fromiter((s[i] for i in range(dof)), float, dof)))
@@ -122,18 +125,38 @@ class Planner:
         for j in range(self.dof):
             start[j], goal[j] = float(q_start[j]), float(q_goal[j])
         setup.setStartAndGoalStates(start, goal)
-        setup.setPlanner(getattr(og, self.config.planner)(setup.getSpaceInformation()))
+        planner = getattr(og, self.config.planner)(setup.getSpaceInformation())
+        if self.config.range_rad and hasattr(planner, "setRange"):
+            planner.setRange(self.config.range_rad)
+        setup.setPlanner(planner)
         if not setup.solve(self.config.timeout_s) or not setup.haveExactSolutionPath():
             return None
         raw = _waypoints(setup.getSolutionPath(), self.dof)
-        setup.simplifySolution(self.config.simplify_s)
-        simplified = _waypoints(setup.getSolutionPath(), self.dof)
-        for candidate in (simplified, raw):  # the shortcut path must survive the dense re-check
-            candidate[0], candidate[-1] = q_start, q_goal
-            if self.path_free(candidate):
-                return candidate
-        return None
+        raw[0], raw[-1] = q_start, q_goal
+        return self._shortcut(raw)
+
+    def _shortcut(self, raw: np.ndarray) -> np.ndarray | None:
+        """From each kept vertex jump to the farthest later vertex joined by a densely checked free line: fewer
+        waypoints, and every returned segment already passed the dense check. None when a raw edge itself fails
+        it (the coarse search step let it clip an obstacle)."""
+        keep, i = [0], 0
+        while i < len(raw) - 1:
+            j = next((j for j in range(len(raw) - 1, i, -1) if self.segment_free(raw[i], raw[j])), None)
+            if j is None:
+                return None
+            keep.append(j)
+            i = j
+        return raw[keep]
 
 
 def _waypoints(path: og.PathGeometric, dof: int) -> np.ndarray:
     return np.array([[path.getState(i)[j] for j in range(dof)] for i in range(path.getStateCount())])
+
+
+def coarse_to_fine(n: int):
+    """0..n, every 2^m-th index first, then the ones in between, halving the stride down to 1."""
+    stride = 1 << max(0, n.bit_length() - 1)
+    yield from range(0, n + 1, stride)
+    while stride > 1:
+        yield from range(stride // 2, n + 1, stride)
+        stride //= 2

@@ -16,13 +16,18 @@ from itertools import pairwise
 from typing import Literal
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
+from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization, Trajectory
 
 from motion.limits import MotionLimits
 from safety.trajectory import GripperEvent, JointTrajectory
 
 # Crossing speed cap as a fraction of the joint velocity limit: below 1 so a crossing need not brake at full jerk.
 BLEND_SPEED_FRACTION = 0.9
+# Crossing speeds tried per joint (fractions of the cap) and coordinate-descent sweeps over all waypoints.
+BLEND_LEVELS = (-1.0, -0.6, -0.3, 0.0, 0.3, 0.6, 1.0)
+BLEND_SWEEPS = 3
+# A blended segment too fast for the TCP cap is slowed (with its crossings) unless that takes a factor below this.
+MIN_BLEND_SLOWDOWN = 0.5
 # Ruckig's profiles may overshoot a limit by ~1e-5 relative; the gate tolerates only rounding, so time a hair
 # inside the limits (costs at most 0.1 % of duration).
 HEADROOM = 0.999
@@ -35,6 +40,21 @@ TcpPositions = Callable[[np.ndarray], np.ndarray]  # (N, dof) -> (N, 3), e.g. Ro
 
 class TimingError(RuntimeError):
     """Ruckig found no trajectory for a segment, or the input path is unusable."""
+
+
+class _TooFast(TimingError):
+    def __init__(self, peak: float, limit: float) -> None:
+        super().__init__(f"TCP speed {peak:.3f} m/s above {limit} m/s in a blended segment")
+        self.factor = limit * TCP_SPEED_TARGET / peak  # uniform slow-down that would bring it under
+
+
+class _Unblendable(Exception):
+    """Segment `segment` of path `path` failed with its crossing velocities; factor > 0: slowing it (limits and
+    both crossings) by this factor may fix it, 0: it must stop at its ends."""
+
+    def __init__(self, path: int, segment: int, factor: float) -> None:
+        super().__init__(f"path {path} segment {segment}")
+        self.path, self.segment, self.factor = path, segment, factor
 
 
 @dataclass(frozen=True)
@@ -55,6 +75,13 @@ class _Hold:
 
 Piece = Trajectory | _Hold
 Step = np.ndarray | GripperAction
+
+
+def _duration(q0, v0, q1, v1, limits: MotionLimits) -> float:
+    try:
+        return _ruckig(q0, v0, q1, v1, limits).duration
+    except (TimingError, RuckigError):
+        return np.inf
 
 
 def _scaled(limits: MotionLimits, f: float) -> MotionLimits:
@@ -96,16 +123,26 @@ class TrajectoryTimer:
         self.tcp_positions, self.max_tcp_speed = tcp_positions, max_tcp_speed_m_s
 
     # -- segments ----------------------------------------------------------------------------------------------
-    def segment(self, q0, v0, q1, v1) -> Trajectory:
-        """One Ruckig segment, slowed uniformly while its sampled TCP speed is above the Cartesian limit."""
-        limits = self.limits
-        traj = _ruckig(q0, v0, q1, v1, limits)
+    def rest_segment(self, q0: np.ndarray, q1: np.ndarray) -> tuple[Trajectory, float]:
+        """Rest-to-rest straight-line segment, and the uniform limit scale (<= 1) that kept its sampled TCP speed
+        under the Cartesian limit."""
+        zero, scale = np.zeros(self.limits.dof), 1.0
+        traj = _ruckig(q0, zero, q1, zero, self.limits)
         for _ in range(4):
             peak = self._tcp_peak(traj)
             if peak <= self.max_tcp_speed * TCP_SPEED_ACCEPT:
-                return traj
-            limits = _scaled(limits, self.max_tcp_speed * TCP_SPEED_TARGET / peak)
-            traj = _ruckig(q0, v0, q1, v1, limits)
+                break
+            scale *= self.max_tcp_speed * TCP_SPEED_TARGET / peak
+            traj = _ruckig(q0, zero, q1, zero, _scaled(self.limits, scale))
+        return traj, scale
+
+    def blended_segment(self, q0, v0, q1, v1, scale: float) -> Trajectory:
+        """State-to-state segment at the limits scaled like its rest-to-rest version; TimingError when its TCP
+        would still be too fast (it cannot slow down further and still meet its crossing velocities)."""
+        traj = _ruckig(q0, v0, q1, v1, _scaled(self.limits, scale))
+        peak = self._tcp_peak(traj)
+        if peak > self.max_tcp_speed * TCP_SPEED_ACCEPT:
+            raise _TooFast(peak, self.max_tcp_speed)
         return traj
 
     def _tcp_peak(self, traj: Trajectory) -> float:
@@ -115,19 +152,39 @@ class TrajectoryTimer:
         p = self.tcp_positions(np.array([traj.at_time(x)[0] for x in t]))
         return float(np.max(np.linalg.norm(np.diff(p, axis=0), axis=1) / np.maximum(np.diff(t), 1e-12)))
 
-    def blend_velocities(self, waypoints: np.ndarray) -> np.ndarray:
-        """Crossing velocity per waypoint: per joint, twice the smaller of the neighbouring segments' mean speeds
-        (from their rest-to-rest timing) where both move the joint the same way, else zero; ends at rest."""
+    def blend_velocities(self, waypoints: np.ndarray, rest: list[tuple[Trajectory, float]]) -> np.ndarray:
+        """Crossing velocity per waypoint (ends at rest), chosen to shorten the chain of segments.
+
+        Start: per joint, twice the smaller of the neighbouring segments' mean speeds (rest-to-rest timing) where
+        both move the joint the same way, else zero. Then coordinate descent: each joint's crossing speed at each
+        waypoint takes the value from BLEND_LEVELS (times its cap) that minimises the two adjacent segments'
+        durations. Caps keep every crossing below both segments' scaled velocity limits.
+        """
         v = np.zeros_like(waypoints)
         if len(waypoints) < 3:
             return v
-        rest = np.zeros(self.limits.dof)
-        durations = np.array([self.segment(a, rest, b, rest).duration for a, b in pairwise(waypoints)])
+        durations = np.array([traj.duration for traj, _ in rest])
+        scales = np.array([scale for _, scale in rest])
         mean = np.diff(waypoints, axis=0) / np.maximum(durations, 1e-9)[:, None]
         before, after = mean[:-1], mean[1:]
         same = np.sign(before) * np.sign(after) > 0
-        speed = np.minimum(2.0 * np.minimum(np.abs(before), np.abs(after)), self.limits.velocity * BLEND_SPEED_FRACTION)
-        v[1:-1] = np.where(same, np.sign(after) * speed, 0.0)
+        cap = np.minimum(scales[:-1], scales[1:])[:, None] * self.limits.velocity * BLEND_SPEED_FRACTION
+        v[1:-1] = np.where(same, np.sign(after) * np.minimum(2.0 * np.minimum(np.abs(before), np.abs(after)), cap), 0)
+        limits = [_scaled(self.limits, f) for f in scales]
+
+        def cost(i: int) -> float:  # durations of the two segments meeting at waypoint i
+            return sum(_duration(waypoints[k], v[k], waypoints[k + 1], v[k + 1], limits[k]) for k in (i - 1, i))
+
+        for _ in range(BLEND_SWEEPS):
+            for i in range(1, len(waypoints) - 1):
+                for j in range(self.limits.dof):
+                    best, best_value = cost(i), v[i, j]
+                    for level in BLEND_LEVELS:
+                        v[i, j] = level * cap[i - 1, j]
+                        c = cost(i)
+                        if c < best - 1e-9:
+                            best, best_value = c, v[i, j]
+                    v[i, j] = best_value
         return v
 
     # -- whole sequences ---------------------------------------------------------------------------------------
@@ -140,15 +197,26 @@ class TrajectoryTimer:
         check passes or everything is rest-to-rest (then the trajectory is returned for the gate to refuse).
         """
         steps = self._checked(steps)
-        paths = [s for s in steps if not isinstance(s, GripperAction)]
-        velocities = [np.zeros_like(p) for p in paths]
-        if not blend:
-            return self._sample(self._pieces(steps, velocities))[0]
-        if check is None:
+        if blend and check is None:
             raise TimingError("blended timing needs a check (the safety gate) to accept the bent segments")
-        velocities = [self.blend_velocities(p) for p in paths]
+        paths = [s for s in steps if not isinstance(s, GripperAction)]
+        rest = [[self.rest_segment(a, b) for a, b in pairwise(p)] for p in paths]
+        if not blend:
+            return self._sample(self._pieces(steps, [np.zeros_like(p) for p in paths], rest, []))[0]
+        velocities = [self.blend_velocities(p, r) for p, r in zip(paths, rest, strict=True)]
+        slow = [np.ones(len(p) - 1) for p in paths]  # extra slow-down of blended segments for the TCP cap
         while True:
-            traj, starts = self._sample(self._pieces(steps, velocities))
+            try:
+                pieces = self._pieces(steps, velocities, rest, slow)
+            except _Unblendable as e:  # slow this segment and its crossings down, or make it stop at its ends
+                k, crossing = e.segment, velocities[e.path][e.segment : e.segment + 2]
+                if e.factor > MIN_BLEND_SLOWDOWN:
+                    crossing *= e.factor
+                    slow[e.path][k] *= e.factor
+                else:
+                    crossing[:] = 0.0
+                continue
+            traj, starts = self._sample(pieces)
             bad_times = list(check(traj)) + self._outside_limits(traj)
             if not bad_times or not any(np.any(v) for v in velocities):
                 return traj
@@ -180,16 +248,27 @@ class TrajectoryTimer:
                 raise TimingError(f"paths {i} and {i + 1} do not join: a path must start where the previous one ends")
         return out
 
-    def _pieces(self, steps: Sequence[Step], velocities: list[np.ndarray]) -> list[Piece]:
+    def _pieces(self, steps: Sequence[Step], velocities: list[np.ndarray], rest: list[list], slow: list) -> list[Piece]:
+        """Ruckig segments and gripper holds in order; rest[p][i] is path p's segment i timed rest-to-rest, and
+        slow[p][i] the extra limit scale of its blended version."""
         pieces: list[Piece] = []
         q_last = None
-        paths = iter(velocities)
+        paths = iter(enumerate(velocities))
         for step in steps:
             if isinstance(step, GripperAction):
                 pieces.append(_Hold(q_last, step.duration_s, step))
                 continue
-            v = next(paths)
-            pieces += [self.segment(step[i], v[i], step[i + 1], v[i + 1]) for i in range(len(step) - 1)]
+            p, v = next(paths)
+            for i in range(len(step) - 1):
+                traj, scale = rest[p][i]
+                if np.any(v[i : i + 2]):
+                    try:
+                        traj = self.blended_segment(step[i], v[i], step[i + 1], v[i + 1], scale * slow[p][i])
+                    except _TooFast as e:
+                        raise _Unblendable(p, i, e.factor) from e
+                    except (TimingError, RuckigError) as e:
+                        raise _Unblendable(p, i, 0.0) from e
+                pieces.append(traj)
             q_last = step[-1]
         if not pieces:  # a single-waypoint path: hold it for one period
             pieces.append(_Hold(steps[0][0], 0.0, GripperAction("wait", 0.0)))

@@ -55,12 +55,15 @@ def demo(
     out: Annotated[Path, typer.Option(help="folder for the captures")] = Path("out/demo"),
 ) -> None:
     """Move the simulated arm through a few poses and save a capture at each (sim profiles only)."""
-    from runtime.demo import run_demo
+    from runtime.demo import DemoRefused, run_demo
 
     profile = _load(config)
     if profile.robot.kind != "sim":
         _fail("the demo only drives the simulated arm; use a sim profile")
-    run_demo(profile, out)
+    try:
+        run_demo(profile, out)
+    except DemoRefused as e:
+        _fail(f"demo stopped: {e}")
 
 
 @app.command("check-trajectory")
