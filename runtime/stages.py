@@ -116,11 +116,15 @@ class PipelineStages:
         ctx.motion = motion
 
     # -- planning -----------------------------------------------------------------------------------------
+    def contact_poses(self, ctx: RunContext):
+        """The contact stage's decision as runtime.manipulation.ContactPoses."""
+        plan_contact = require("contact", "pipeline.contact", "plan_contact")
+        return plan_contact(ctx)
+
     def plan(self, ctx: RunContext) -> PlanSummary:
-        contact_poses = require("contact", "pipeline.contact", "plan_contact")
         plan_manipulation = require("planning", "runtime.manipulation", "plan_manipulation")
         draw_tcp_poses = require("planning", "runtime.overlay", "draw_tcp_poses")
-        poses = contact_poses(ctx)
+        poses = self.contact_poses(ctx)
         plan = plan_manipulation(ctx, poses)
         ctx.trajectory = plan
         frame = ctx.frame0

@@ -25,12 +25,20 @@ pytestmark = pytest.mark.slow
 
 
 def top_down_grasp(T_base_object: np.ndarray, height_m: float) -> np.ndarray:
-    """TCP pose pointing down at the object's axis, fingers closing along the object's x axis."""
+    """TCP pose pointing down at the object's axis, fingers closing across one of its side-face pairs: of the
+    four equivalent choices, the one turning the wrist least from the home posture (TCP x along base x)."""
     z = np.array([0.0, 0.0, -1.0])
-    y = T_base_object[:3, 0] - T_base_object[:3, 0] @ z * z
-    y /= np.linalg.norm(y)
+    best = None
+    for k in range(4):
+        angle = k * np.pi / 2
+        y = np.cos(angle) * T_base_object[:3, 0] + np.sin(angle) * T_base_object[:3, 1]
+        y = y - (y @ z) * z
+        y /= np.linalg.norm(y)
+        x = np.cross(y, z)
+        if best is None or x[0] > best[0][0]:
+            best = (x, y)
     T = np.eye(4)
-    T[:3, :3] = np.column_stack([np.cross(y, z), y, z])
+    T[:3, :3] = np.column_stack([best[0], best[1], z])
     T[:3, 3] = T_base_object[:3, 3] + [0.0, 0.0, height_m]
     return T
 
