@@ -194,15 +194,17 @@ class TrajectoryTimer:
         blend=False: rest at every waypoint (the straight lines the planner validated). blend=True: cross interior
         waypoints without stopping where `check` (required) accepts the result; a segment holding a rejected
         sample, or leaving the joint limits, loses its crossing velocities and the chain is re-timed, until the
-        check passes or everything is rest-to-rest (then the trajectory is returned for the gate to refuse).
+        check passes. The rest-to-rest trajectory is returned instead whenever blending would not be faster or
+        nothing is left to blend (the caller's gate then judges it like an unblended one).
         """
         steps = self._checked(steps)
         if blend and check is None:
             raise TimingError("blended timing needs a check (the safety gate) to accept the bent segments")
         paths = [s for s in steps if not isinstance(s, GripperAction)]
         rest = [[self.rest_segment(a, b) for a, b in pairwise(p)] for p in paths]
+        stop = self._sample(self._pieces(steps, [np.zeros_like(p) for p in paths], rest, []))[0]
         if not blend:
-            return self._sample(self._pieces(steps, [np.zeros_like(p) for p in paths], rest, []))[0]
+            return stop
         velocities = [self.blend_velocities(p, r) for p, r in zip(paths, rest, strict=True)]
         slow = [np.ones(len(p) - 1) for p in paths]  # extra slow-down of blended segments for the TCP cap
         while True:
@@ -217,9 +219,13 @@ class TrajectoryTimer:
                     crossing[:] = 0.0
                 continue
             traj, starts = self._sample(pieces)
+            if traj.duration_s >= stop.duration_s:  # slowed so much that stopping is as fast: take the straight lines
+                return stop
             bad_times = list(check(traj)) + self._outside_limits(traj)
-            if not bad_times or not any(np.any(v) for v in velocities):
+            if not bad_times:
                 return traj
+            if not any(np.any(v) for v in velocities):
+                return stop
             _drop_blends_at(bad_times, starts, steps, velocities, self.dt)
 
     def _checked(self, steps: Sequence[Step]) -> list[Step]:

@@ -76,5 +76,5 @@ def test_blocked_line_is_refused_with_the_place(robot, safety, limits):
     world = CollisionWorld(robot.copy(), safety)
     q_pre = ik_goals(world, limits, pre, robot.home_q)[0].q
     world.set_obstacles([plate])
-    with pytest.raises(CartesianPathError, match="collision .*of the way.*plate"):
+    with pytest.raises(CartesianPathError, match=r"collision .*of the way.*plate"):
         cartesian_path(Planner(world, limits), q_pre, grasp)

@@ -98,25 +98,26 @@ def test_blending_is_faster_and_respects_limits(robot, limits):
 
 
 def test_rejected_blend_falls_back_to_straight_segments(robot, limits):
-    """A check that rejects everything after 0.2 s leaves only the first segment blended; the chain that the
-    check finally accepts is what is returned, and rejected parts run on the straight lines."""
+    """A check that rejects every bent sample in the last segment: the crossing into it is dropped, the earlier
+    crossings stay, and the result is accepted, faster than stopping, and straight where it was rejected."""
     timer = TrajectoryTimer(limits, 0.01, robot.joint_names)
-    waypoints = robot.home_q + np.outer([0, 0.4, 0.8, 1.2], [0.5, 0.3, -0.4, 0.5, 0.3, 0.2, 0.6])
+    waypoints = robot.home_q + np.outer([0, 0.4, 0.8, 1.2, 1.6], [0.5, 0.3, -0.4, 0.5, 0.3, 0.2, 0.6])
     waypoints[2] += [0.1, -0.05, 0, 0.05, 0, 0, 0]
+    last = waypoints[-2:]
     calls = []
 
     def check(tr):
         calls.append(tr)
-        return [
-            t
-            for t in tr.times
-            if t > 0.2 and _distance_to_polyline(tr.positions[[int(t / tr.dt)]], waypoints)[0] > 1e-6
-        ]
+        near_end = np.linalg.norm(tr.positions - last[1], axis=1) < np.linalg.norm(last[1] - last[0])
+        bent = _distance_to_polyline(tr.positions, last) > 1e-6
+        return list(tr.times[near_end & bent])
 
+    stop = timer.time([waypoints])
     traj = timer.time([waypoints], blend=True, check=check)
     assert len(calls) >= 2 and check(traj) == []
-    late = traj.times > 0.2
-    assert _distance_to_polyline(traj.positions[late], waypoints).max() < 1e-6
+    assert traj.duration_s < 0.95 * stop.duration_s
+    near_end = np.linalg.norm(traj.positions - last[1], axis=1) < np.linalg.norm(last[1] - last[0])
+    assert _distance_to_polyline(traj.positions[near_end], last).max() < 1e-6
 
 
 def test_gripper_actions_hold_the_arm(robot, limits, timer):
