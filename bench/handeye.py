@@ -22,8 +22,8 @@ from rich.console import Console  # noqa: E402
 from rich.table import Table  # noqa: E402
 
 from calibration.board import load_board  # noqa: E402
+from calibration.mover import GatedMover  # noqa: E402
 from calibration.session import (  # noqa: E402
-    GatedMover,
     ViewCollector,
     board_as_held_object,
     judge,

@@ -19,9 +19,8 @@ from scipy.spatial.transform import Rotation
 
 from calibration.board import CharucoBoardSpec
 from calibration.handeye import Mode
+from calibration.mover import CalibrationRefused, GatedMover
 from calibration.session import (
-    CalibrationRefused,
-    GatedMover,
     Geometry,
     HandEyeOutcome,
     ViewCollector,

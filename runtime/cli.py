@@ -127,7 +127,7 @@ def calibrate_hand_eye(
     from rich.console import Console
 
     from calibration.board import BoardError, load_board
-    from calibration.session import CalibrationRefused
+    from calibration.mover import CalibrationRefused
     from runtime.calibrate import run_hand_eye
 
     modes = {"eye-to-hand": "eye_to_hand", "eye-in-hand": "eye_in_hand"}

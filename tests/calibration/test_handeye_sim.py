@@ -8,14 +8,12 @@ spans ~13 px at 0.8 m and per-view PnP noise grows accordingly.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from calibration.board import load_board
+from calibration.mover import GatedMover
 from calibration.session import (
-    GatedMover,
     ViewCollector,
     board_as_held_object,
     judge,
@@ -25,6 +23,7 @@ from calibration.session import (
 from drivers.sim import SimArm, SimCamera, SimWorld
 from motion.executor import ExecutorConfig
 from motion.limits import MotionLimits
+from runtime.calibrate import pose_error, sim_overrides
 from safety.collision import CollisionWorld
 from safety.robot_model import RobotModel
 
@@ -46,24 +45,6 @@ class SteppedClock:
             self.world.step(t - self.world.time)
 
 
-def pose_error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
-    E = np.linalg.inv(T_true) @ T_est
-    return 1000 * float(np.linalg.norm(E[:3, 3])), float(np.degrees(Rotation.from_matrix(E[:3, :3]).magnitude()))
-
-
-def sim_board(board, geometry, mode, tmp_path):
-    texture = tmp_path / "board.png"
-    cv2.imwrite(str(texture), board.image(96))
-    T = geometry.T_flange_board if mode == "eye_to_hand" else geometry.T_base_board
-    return {
-        "texture": str(texture),
-        "size_m": list(board.size_m),
-        "mount": "flange" if mode == "eye_to_hand" else "table",
-        "xyz_m": T[:3, 3].tolist(),
-        "rpy_rad": Rotation.from_matrix(T[:3, :3]).as_euler("xyz").tolist(),
-    }
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("mode", ["eye_to_hand", "eye_in_hand"])
 def test_recovers_true_extrinsics(sim_profile_with, tmp_path, mode):
@@ -71,10 +52,7 @@ def test_recovers_true_extrinsics(sim_profile_with, tmp_path, mode):
     base = sim_profile_with()
     plan_cfg = base.calibration.hand_eye.model_copy(update={"poses": N_VIEWS, "min_views": 10})
     geometry = nominal_geometry(mode, board, plan_cfg, base.camera.sim)
-    camera_cfg = {"width_px": 1280, "height_px": 720}
-    if mode == "eye_in_hand":
-        camera_cfg["sim"] = {"mount": "flange"}
-    profile = sim_profile_with({"camera": camera_cfg, "sim": {"board": sim_board(board, geometry, mode, tmp_path)}})
+    profile = sim_profile_with(sim_overrides(mode, board, geometry, tmp_path))  # board placed, 1280x720
     world = SimWorld(profile.sim, profile.camera)
     arm, camera = SimArm(world), SimCamera(world)
     safety_world = CollisionWorld(RobotModel(world.spec), profile.safety)
