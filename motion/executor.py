@@ -173,8 +173,10 @@ class Executor:
             raise ExecutionRefused(f"trajectory joints {traj.joint_names} are not the arm's {self.arm.joint_names}")
         if traj.gripper_events and self.gripper is None:
             raise ExecutionRefused("the trajectory has gripper events but the executor has no gripper")
-        q = self.arm.read_state().q
-        gap = np.abs(traj.positions[0] - q)
+        state = self.arm.read_state()
+        if state.fault_code:
+            raise ExecutionRefused(f"the arm reports controller error {state.fault_code}: clear it first")
+        gap = np.abs(traj.positions[0] - state.q)
         if gap.max() > self.config.start_tolerance_rad:
             j = int(np.argmax(gap))
             raise ExecutionRefused(

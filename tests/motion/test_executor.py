@@ -156,6 +156,21 @@ def test_controller_fault_stops_at_once(sim_profile_with, timer, limits, free_wo
     assert report.times_s[-1] <= 0.3 + 0.011  # the first tick after the fault ends it
 
 
+def test_step_guard_stops_before_sending_a_big_step(sim, timer, limits, free_world):
+    """Defence in depth: with a per-tick limit below the trajectory's steps, the executor stops the arm instead of
+    sending the step (the gate normally makes this impossible)."""
+    world, arm, _ = sim
+    q0 = arm.read_state().q
+    report = Executor(arm, ExecutorConfig(max_step_rad=0.002), limits, clock=SteppedClock(world)).execute(
+        _approved(timer, free_world, q0)
+    )
+    assert report.status == "fault" and "exceeds 0.002 rad per tick" in report.reason
+    assert report.max_step_rad <= 0.002
+    with pytest.raises(ExecutionRefused, match="clear it first"):
+        arm._fault = 24  # a latched controller error: nothing is started on top of it
+        Executor(arm, ExecutorConfig(), limits, clock=SteppedClock(world)).start(_approved(timer, free_world, q0))
+
+
 class _FrozenStateArm(SimArm):
     """An arm whose state reports stop updating after a while (a dead report stream)."""
 

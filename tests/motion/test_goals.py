@@ -78,3 +78,12 @@ def test_blocked_line_is_refused_with_the_place(robot, safety, limits):
     world.set_obstacles([plate])
     with pytest.raises(CartesianPathError, match=r"collision .*of the way.*plate"):
         cartesian_path(Planner(world, limits), q_pre, grasp)
+
+
+def test_configuration_jump_is_refused(robot, safety, limits):
+    """A joint change above max_jump_rad between two 5 mm steps is refused as a flip, naming the joint."""
+    grasp = top_down(0.42, -0.05, 0.06)
+    world = CollisionWorld(robot.copy(), safety)
+    q_pre = ik_goals(world, limits, tool_offset(grasp, 0.12), robot.home_q)[0].q
+    with pytest.raises(CartesianPathError, match=r"joint \d jumps .* \(flip or singularity\)"):
+        cartesian_path(Planner(world, limits), q_pre, grasp, max_jump_rad=0.001)
