@@ -25,6 +25,7 @@ from runtime.states import State
 from safety.geometry import Primitive
 
 pytestmark = pytest.mark.slow
+pytest.importorskip("pipeline.grounding.ground", reason="the grounding stage is not part of this build")
 HAS_CONTACT = importlib.util.find_spec("pipeline.contact") is not None and hasattr(
     importlib.import_module("pipeline.contact"), "plan_contact"
 )
