@@ -3,6 +3,7 @@
 The target's pixels are lifted to 3D with the measured depth and intrinsics, moved rigidly to where the
 instruction puts them (found from the segmented reference object and the table plane), projected back with a
 z-buffer (correct perspective scale and occlusion) and splatted; the vacated region is inpainted (cv2.inpaint).
+For "stand up" the hidden underside turns into view, so the lying body is first completed as a solid of revolution.
 The goal's depth is composed the same way and handed over as normalised disparity (like a relative monocular
 model), together with the applied rigid motion, which is the ground truth a benchmark compares grounding to.
 """
@@ -96,7 +97,10 @@ class OfflineEditor(ImageEditor):
         T = np.eye(4)
         T[:3, :3] = R
         T[:3, 3] = pivot - R @ pivot + t
-        goal_rgb, goal_depth = _render(rgb, depth_m, K, plane, mask_x, px, T)
+        colours = rgb[mask_x]
+        if instr.action == "stand_up":  # the hidden underside turns into view: complete the body first
+            px, colours = revolve(fx, colours, plane)
+        goal_rgb, goal_depth = _render(rgb, depth_m, K, plane, mask_x, px, colours, T)
         return goal_rgb, goal_depth, T
 
     @staticmethod
@@ -145,6 +149,7 @@ def _render(
     plane: Plane,
     mask_x: np.ndarray,
     points: np.ndarray,
+    colours: np.ndarray,
     T: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Goal RGB and metric depth: inpaint where the object was, then z-buffer splat it at its new pose."""
@@ -160,7 +165,6 @@ def _render(
         depth = depth[iv, iu]
 
     moved = points @ T[:3, :3].T + T[:3, 3]
-    colours = rgb[mask_x]
     front = moved[:, 2] > 1e-3
     uv = np.full((len(moved), 2), -1.0)
     uv[front] = K.project(moved[front])
@@ -181,10 +185,48 @@ def _render(
     zbuf[v[seen], u[seen]] = z[seen]
     cbuf = np.zeros_like(rgb)
     cbuf[v[seen], u[seen]] = colours[seen]
-    scale = float(np.median(points[inside][keep][:, 2] / z))
+    scale = float(np.median(points[inside][keep][:, 2] / z)) if len(points) == mask_x.sum() else 1.0
     k = 2 * math.ceil(max(scale, 1.0)) + 1
     closed = cv2.morphologyEx(splat.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8)).astype(bool)
     _, (iv, iu) = distance_transform_edt(~splat, return_indices=True)  # holes take the nearest splatted pixel
     goal[closed] = cbuf[iv, iu][closed]
     depth[closed] = np.minimum(zbuf[iv, iu][closed], depth[closed])
     return goal, depth.astype(np.float32)
+
+
+def revolve(fp: Footprint, colours: np.ndarray, plane: Plane, step_m: float = 0.002) -> tuple[np.ndarray, np.ndarray]:
+    """A lying body completed as a solid of revolution about its long axis, from its visible (upper) surface.
+
+    The radius profile along the axis is half the body's width across it; colours are the visible median per
+    slice. Used for stand-up, where the hidden underside turns towards the camera.
+    """
+    axis = principal_axis(fp, plane)
+    across = np.cross(plane.n, axis)
+    q = plane.project(fp.points) - fp.centre
+    s, w = q @ axis, q @ across
+    bins = np.arange(s.min(), s.max() + step_m, step_m)
+    idx = np.clip(np.digitize(s, bins) - 1, 0, len(bins) - 1)
+    radius_profile = np.zeros(len(bins))
+    centre_across = float(np.median(w))
+    slice_colour = np.tile(np.median(colours, axis=0), (len(bins), 1))
+    for k in np.unique(idx):
+        sel = idx == k
+        radius_profile[k] = 0.5 * (np.percentile(w[sel], 95) - np.percentile(w[sel], 5))
+        slice_colour[k] = np.median(colours[sel], axis=0)
+    body_radius = float(np.percentile(radius_profile[radius_profile > 0], 90))
+    origin = fp.centre + centre_across * across + body_radius * plane.n
+    pts, cols = [], []
+    for k, s_k in enumerate(bins):
+        r = radius_profile[k] if radius_profile[k] > 0 else body_radius
+        n_around = max(8, int(2 * np.pi * r / step_m))
+        theta = np.linspace(0.0, 2 * np.pi, n_around, endpoint=False)
+        ring = origin + s_k * axis + r * (np.cos(theta)[:, None] * across + np.sin(theta)[:, None] * plane.n)
+        pts.append(ring)
+        cols.append(np.tile(slice_colour[k], (len(ring), 1)))
+        if k in (0, len(bins) - 1):  # end caps
+            for rr in np.arange(step_m, r, step_m):
+                m = max(6, int(2 * np.pi * rr / step_m))
+                th = np.linspace(0.0, 2 * np.pi, m, endpoint=False)
+                pts.append(origin + s_k * axis + rr * (np.cos(th)[:, None] * across + np.sin(th)[:, None] * plane.n))
+                cols.append(np.tile(slice_colour[k], (m, 1)))
+    return np.concatenate(pts), np.concatenate(cols).astype(np.uint8)

@@ -128,3 +128,28 @@ def test_editor_refusals_are_provider_errors(sim_view):
         assert e.value.kind == "refused" and words in str(e.value), str(e.value)
     with pytest.raises(ProviderError, match="depth frame"):
         editor.edit(EditRequest(frame.rgb, "push the red block"))
+
+
+def test_stand_up_turns_a_lying_bottle_upright(sim_profile_with, tmp_path):
+    from drivers.sim import SimCamera, SimWorld
+
+    (tmp_path / "bottle.yaml").write_text(
+        "name: bottle\nobjects:\n"
+        "  - {name: green_bottle, kind: bottle, radius_m: 0.03, height_m: 0.2, color: green, xy_m: [0.45, 0.0],"
+        " lying: true, yaw_deg: 90}\n"
+        "randomise: {xy_jitter_m: 0.0, yaw_jitter_deg: 0}\n"
+    )
+    profile = sim_profile_with({"sim": {"scene": "bottle", "scenes_dir": str(tmp_path)}})
+    world = SimWorld(profile.sim, profile.camera)
+    with SimCamera(world) as camera:
+        frame = camera.read()
+    seg = OfflineSegmenter()
+    result = OfflineEditor(seg).edit(EditRequest(frame.rgb, "stand the green bottle up", frame.depth, frame.intrinsics))
+    R = result.T_goal_init_camera[:3, :3]
+    up_camera = world.T_world_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+    assert abs(np.degrees(np.arccos(np.clip(np.trace(R) / 2 - 0.5, -1, 1))) - 90.0) < 1e-6
+    assert abs(up_camera @ R @ up_camera) < 1e-6  # tipped about a horizontal axis
+    before, after = seg.segment(frame.rgb, "green bottle")[0], seg.segment(result.rgb, "green bottle")[0]
+    (u0, v0, u1, v1), (a0, b0, a1, b1) = before.box, after.box
+    assert (u1 - u0) > 2 * (v1 - v0)  # lying across the view
+    assert (b1 - b0) > 1.5 * (a1 - a0)  # standing: taller than wide, its hidden side completed
