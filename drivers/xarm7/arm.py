@@ -31,6 +31,7 @@ POSITION_MODE = 0
 STOP_STATE = 4
 READY_STATES = (0, 1, 2)  # 1 moving, 2 ready/sleeping; 0 just after set_state(0)
 READY_TIMEOUT_S = 1.0
+STEP_SLACK = 1.5  # the executor keeps steps within safety.max_joint_step_rad; re-timing may exceed it slightly
 
 ApiFactory = Callable[..., Any]
 
@@ -58,6 +59,8 @@ class XArm7(Arm):
         self.api: Any = None
         self._stopped = False
         self.firmware_version = ""
+        self.max_step_rad = STEP_SLACK * safety.max_joint_step_rad
+        self._last_q: np.ndarray | None = None  # last set-point sent; None: compare with the measured position
         self.last_servo_call_s = 0.0
 
     # -- lifecycle ----------------------------------------------------------------------------------------
@@ -127,6 +130,7 @@ class XArm7(Arm):
         check(api, "motion_enable", api.motion_enable(True))
         check(api, "set_mode", api.set_mode(mode))
         check(api, "set_state", api.set_state(0))
+        self._last_q = None
         deadline = time.monotonic() + READY_TIMEOUT_S
         while api.mode != mode or api.state not in READY_STATES:
             if time.monotonic() > deadline:
@@ -181,6 +185,14 @@ class XArm7(Arm):
             raise ArmStoppedError("arm is stopped; call clear_fault() to re-enable servo mode")
         if api.error_code:
             raise ControllerError(int(api.error_code), "reported by the controller; call clear_fault()")
+        reference = self._last_q if self._last_q is not None else np.radians(np.asarray(api.angles, float)[: len(q)])
+        step = np.abs(q - reference)
+        if step.max() > self.max_step_rad:  # last line of defence: servo mode executes any jump at full speed
+            j = int(np.argmax(step))
+            raise ValueError(
+                f"XArm7.servo: {self.joint_names[j]} set-point jumps {step[j]:.4f} rad from the last one "
+                f"(limit {self.max_step_rad:.4f} rad per tick); refused"
+            )
         t0 = time.perf_counter()
         code = api.set_servo_angle_j(np.degrees(q).tolist(), is_radian=False)
         self.last_servo_call_s = time.perf_counter() - t0
@@ -189,3 +201,4 @@ class XArm7(Arm):
         if self._stopped:  # stop() arrived while the call was in flight: do not report success
             raise ArmStoppedError("arm was stopped during the servo call; call clear_fault()")
         check(api, "set_servo_angle_j", code)
+        self._last_q = q

@@ -24,7 +24,7 @@ class FakeXArmAPI:
         self.mode, self.state = 0, 4
         self.error_code, self.warn_code = 0, 0
         self.estop_pressed = False  # error 1 comes back after clean_error while the button is down
-        self.angles = [0.0, -45.0, 0.0, 60.0, 0.0, 105.0, 0.0]
+        self.angles = [0.0] * 7  # degrees, as the SDK reports with is_radian=False
         self.realtime_joint_speeds = [0.0] * 7
         self.tcp_offset = [0.0] * 6
         self.reduced: list[Any] = [0, [0.0] * 6, 1000.0, 180.0, [], 0, 0]

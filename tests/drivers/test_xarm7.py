@@ -88,7 +88,7 @@ def test_servo_converts_radians_to_degrees_and_state_back(fakes):
     arm = make_arm(fakes)
     arm.connect()
     api = fakes[0]
-    q = np.array([0.1, -0.5, 0.2, 1.0, 0.0, 1.2, -0.3])
+    q = np.radians(api.angles) + np.array([0.01, -0.02, 0.0, 0.03, 0.0, -0.01, 0.02])
     arm.servo(q)
     name, args, kwargs = api.calls[-1]
     assert name == "set_servo_angle_j" and kwargs == {"is_radian": False}
@@ -290,3 +290,17 @@ def test_gripper_metres_to_sdk_and_back(fakes):
     assert api.calls[-1][:2] == ("set_gripper_position", (850,))
     arm.close()
     assert not gripper.is_connected
+
+
+def test_servo_refuses_a_jump_larger_than_the_per_tick_limit(fakes):
+    arm = make_arm(fakes)  # safety.max_joint_step_rad 0.04 -> the driver refuses steps above 0.06 rad
+    arm.connect()
+    api = fakes[0]
+    q0 = np.radians(api.angles)
+    arm.servo(q0 + 0.05)
+    with pytest.raises(ValueError, match=r"joint1 set-point jumps 0\.1000 rad .* refused"):
+        arm.servo(q0 + 0.15)
+    assert api.names().count("set_servo_angle_j") == 1
+    with pytest.raises(ValueError, match="jumps"):  # after a fault the reference is the measured position again
+        arm.clear_fault()
+        arm.servo(q0 + 0.2)
