@@ -22,7 +22,7 @@ EXIT_CODES = {State.DONE: 0, State.FAILED: 1, State.ESTOPPED: 3}
 
 def describe_plan(plan: PlanSummary) -> str:
     peak = max(plan.peak_joint_speed_rad_s, default=0.0)
-    clearance = "n/a" if plan.min_clearance_m is None else f"{plan.min_clearance_m * 1000:.0f} mm"
+    clearance = "n/a" if plan.min_clearance_m is None else f">= {plan.min_clearance_m * 1000:.0f} mm"
     return (
         f"plan {plan.plan_id}: {plan.mode or 'motion'} for '{plan.instruction}', {plan.duration_s:.1f} s, "
         f"peak joint speed {peak:.2f} rad/s, min clearance {clearance}, gate {'passed' if plan.gate_ok else 'FAILED'}"

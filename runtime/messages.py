@@ -59,7 +59,7 @@ class PlanSummary(Message):
     mode: str = ""  # grasp | push
     duration_s: float
     peak_joint_speed_rad_s: list[float]
-    min_clearance_m: float | None = None
+    min_clearance_m: float | None = None  # guaranteed lower bound: every link passed the gate padded by this
     samples: int
     gate_ok: bool
     object_motion: dict = Field(default_factory=dict)  # translation_m, rotation_deg in the base frame

@@ -43,6 +43,13 @@ def to_bgr(image: np.ndarray) -> np.ndarray:
     return cv2.cvtColor(image.astype(np.uint8), cv2.COLOR_RGB2BGR)
 
 
+def publish_image(bus: Bus, name: str, bgr: np.ndarray) -> None:
+    """images/<name> as JPEG (the console's view; the run folder keeps lossless PNGs)."""
+    ok, jpeg = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, PUBLISHED_JPEG_QUALITY])
+    if ok:
+        bus.publish(bus.keys.image(name), jpeg.tobytes())
+
+
 class RunRecord:
     def __init__(self, run_dir: Path, run_id: str, bus: Bus | None = None) -> None:
         self.dir = run_dir
@@ -76,9 +83,7 @@ class RunRecord:
         if name not in self.images:
             self.images.append(name)
         if self.bus is not None:
-            ok, jpeg = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, PUBLISHED_JPEG_QUALITY])
-            if ok:
-                self.bus.publish(self.bus.keys.image(name), jpeg.tobytes())
+            publish_image(self.bus, name, bgr)
         return path
 
     def finish(self, status: str, reason: str) -> Path:

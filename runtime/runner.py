@@ -29,8 +29,8 @@ from runtime.context import RunContext, StageError, Stages
 from runtime.devices import Devices
 from runtime.estop import EStopNode
 from runtime.messages import PlanSummary
-from runtime.record import RunRecord
-from runtime.states import State, StateMachine, TransitionError
+from runtime.record import RunRecord, publish_image, to_bgr
+from runtime.states import TERMINAL, State, StateMachine, TransitionError
 from runtime.status import StatusPublisher
 from runtime.supervisor import Supervisor
 
@@ -45,6 +45,7 @@ PIPELINE = (
 )
 
 
+PREVIEW_PERIOD_S = 2.0  # camera frames for the console between runs
 STAGE_GRACE_S = 3.0  # on close, how long a still-running stage may take to return
 
 
@@ -220,6 +221,8 @@ class Runtime:
     def _call(self, fn: Callable, ctx: RunContext, name: str):
         """Run a stage on the stage thread; return its result, or end the run on refusal, error or cancel."""
         if self._pending is not None and not self._pending.done():
+            wait([self._pending], timeout=STAGE_GRACE_S)  # a camera preview, or a stage finishing late
+        if self._pending is not None and not self._pending.done():
             raise self._fail(f"{name}: a stage of an earlier run is still running (stuck backend?): restart")
         future = self._pending = self._stage_thread.submit(fn, ctx)
         while not wait([future], timeout=0.01).done:  # (a stage's own TimeoutError must not look like ours)
@@ -255,10 +258,25 @@ class Runtime:
         self.arm_halted = True
 
     # -- serving the console ------------------------------------------------------------------------------
+    def _preview(self) -> None:
+        """Between runs, the latest camera frame for the console (on the stage thread, which owns the camera)."""
+        if self.machine.state not in (State.IDLE, *TERMINAL) or (self._pending and not self._pending.done()):
+            return
+
+        def grab() -> None:
+            frame = self.devices.camera.read(self.profile.camera.read_timeout_s)
+            publish_image(self.bus, "capture", to_bgr(frame.rgb))
+
+        self._pending = self._stage_thread.submit(grab)
+
     def serve(self, stop: threading.Event, on_result: Callable[[RunResult], None] | None = None) -> None:
         """Run instructions and resets sent on `command` until `stop` is set (console-driven operation)."""
+        next_preview = 0.0
         while not stop.is_set():
             if not self.supervisor.command_ready.wait(0.05):
+                if time.monotonic() >= next_preview:
+                    next_preview = time.monotonic() + PREVIEW_PERIOD_S
+                    self._preview()
                 continue
             cmd = self.supervisor.next_command()
             if cmd is None:

@@ -138,7 +138,7 @@ class PipelineStages:
             mode=poses.mode,
             duration_s=plan.duration_s,
             peak_joint_speed_rad_s=plan.peak_joint_speed_rad_s,
-            min_clearance_m=None,
+            min_clearance_m=ctx.profile.safety.padding_m,
             samples=plan.samples,
             gate_ok=True,
             object_motion={

@@ -34,7 +34,8 @@ function showPlan(p) {
   $("plan-mode").textContent = p.mode || "—";
   $("plan-duration").textContent = fmt(p.duration_s, 1) + " s, " + p.samples + " samples";
   $("plan-speeds").textContent = p.peak_joint_speed_rad_s.map((v) => fmt(v)).join(" ") + " rad/s";
-  $("plan-clearance").textContent = p.min_clearance_m === null ? "n/a" : fmt(p.min_clearance_m * 1000, 0) + " mm";
+  $("plan-clearance").textContent =
+    p.min_clearance_m === null ? "n/a" : "≥ " + fmt(p.min_clearance_m * 1000, 0) + " mm (gate padding)";
   $("plan-motion").textContent = JSON.stringify(p.object_motion);
   $("plan-gate").textContent = p.gate_ok ? "passed" : "FAILED";
   refreshConfirm();
