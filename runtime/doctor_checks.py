@@ -21,6 +21,8 @@ MIN_FIRMWARE = (1, 10, 0)  # servo streaming behaviour the driver relies on
 RATE_TOLERANCE = 0.9  # measured fps >= 90 % of the configured rate
 RATE_FRAMES = 20
 ESTOP_ROUND_TRIP_MAX_S = 0.2
+REPORT_WINDOW_S = 0.3
+REPORT_MIN_HZ = 80.0
 PACKAGES = {  # distribution -> import name
     "numpy": "numpy",
     "opencv-python-headless": "cv2",
@@ -117,7 +119,7 @@ def _version_tuple(text: str) -> tuple[int, ...]:
 
 
 def check_arm(arm: Any) -> list[Check]:
-    names = ("firmware version", "errors and warnings", "mode and state", "controller safety settings")
+    names = ("state reports", "firmware version", "errors and warnings", "mode and state", "controller safety settings")
     try:
         arm.connect()
     except Exception as e:
@@ -133,14 +135,26 @@ def check_arm(arm: Any) -> list[Check]:
     out = [Check("arm reachable", True, f"{type(arm).__name__} connected")]
     if api is None:  # the simulated arm has no controller to interrogate
         fault = arm.read_state().fault_code
-        out.append(Check("firmware version", None, "simulated arm"))
+        out += [Check(n, None, "simulated arm") for n in names[:2]]
         out.append(Check("errors and warnings", fault == 0, f"fault code {fault}", "clear_fault()" if fault else ""))
-        out += [Check(n, None, "simulated arm") for n in names[2:]]
+        out += [Check(n, None, "simulated arm") for n in names[3:]]
         return out
     from drivers.xarm7.arm import READY_STATES, SERVO_MODE
     from drivers.xarm7.codes import controller_codes
     from drivers.xarm7.controller_safety import verify
 
+    count = arm.report_count
+    time.sleep(REPORT_WINDOW_S)
+    hz = (arm.report_count - count) / REPORT_WINDOW_S
+    ok = hz >= REPORT_MIN_HZ
+    out.append(
+        Check(
+            "state reports",
+            ok,
+            f"{hz:.0f} Hz (report_type 'real', nominal 100 Hz)",
+            "" if ok else "TCP port 30003 blocked (firewall)? wired link to the controller?",
+        )
+    )
     version = _version_tuple(arm.firmware_version)
     ok = bool(version) and version >= MIN_FIRMWARE
     out.append(

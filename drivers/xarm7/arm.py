@@ -61,6 +61,8 @@ class XArm7(Arm):
         self.firmware_version = ""
         self.max_step_rad = STEP_SLACK * safety.max_joint_step_rad
         self._last_q: np.ndarray | None = None  # last set-point sent; None: compare with the measured position
+        self.report_count = 0  # 100 Hz state reports received (report_type 'real')
+        self._report_stamp = 0.0  # time.monotonic() of the last one
         self.last_servo_call_s = 0.0
 
     # -- lifecycle ----------------------------------------------------------------------------------------
@@ -85,6 +87,9 @@ class XArm7(Arm):
             ) from e
         self.api = api
         try:
+            api.register_report_callback(
+                self._on_report, report_cartesian=False, report_mtable=False, report_mtbrake=False, report_cmd_num=False
+            )
             self.firmware_version = str(check(api, "get_version", api.get_version()))
             self._enable(POSITION_MODE)
             controller_safety.apply(api, self.controller_safety)
@@ -104,6 +109,7 @@ class XArm7(Arm):
         api, self.api = self.api, None
         steps = (
             ("set_state(4)", lambda: api.set_state(STOP_STATE)),
+            ("release_report_callback", lambda: api.release_report_callback(self._on_report)),
             ("set_mode(0)", lambda: api.set_mode(POSITION_MODE)),
             ("set_state(0)", lambda: api.set_state(0)),
             ("disconnect", api.disconnect),
@@ -169,12 +175,19 @@ class XArm7(Arm):
             self.api.emergency_stop()
 
     # -- state and commands -------------------------------------------------------------------------------
+    def _on_report(self, data: dict) -> None:
+        """SDK report thread, 100 Hz: the time of the newest state (the executor stops on a stale one)."""
+        self._report_stamp = time.monotonic()
+        self.report_count += 1
+
     def read_state(self) -> JointState:
+        """The newest reported state; stamp_s is when it arrived (monotonic), so a silent report link shows as a
+        stamp that stops advancing."""
         api = self._require("read_state()")
         n = len(self.joint_names)
         q = np.radians(np.asarray(api.angles, dtype=np.float64)[:n])
         qd = np.radians(np.asarray(api.realtime_joint_speeds, dtype=np.float64)[:n])
-        return JointState(self.joint_names, q, qd, time.monotonic(), int(api.error_code or 0))
+        return JointState(self.joint_names, q, qd, self._report_stamp, int(api.error_code or 0))
 
     def servo(self, q: np.ndarray) -> None:
         api = self._require("servo()")

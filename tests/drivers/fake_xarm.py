@@ -8,6 +8,7 @@ link (calls then return -1 and `connected` is False) and stall a call until rele
 from __future__ import annotations
 
 import threading
+import time
 from collections import defaultdict
 from typing import Any
 
@@ -29,6 +30,9 @@ class FakeXArmAPI:
         self.tcp_offset = [0.0] * 6
         self.reduced: list[Any] = [0, [0.0] * 6, 1000.0, 180.0, [], 0, 0]
         self.gripper_position = 850.0
+        self.report_callbacks: list = []
+        self.report_hz = 100.0  # 0: the report link is silent
+        self._reporter: threading.Thread | None = None
 
     # -- helpers ------------------------------------------------------------------------------------------
     def _call(self, name: str, *args: Any, **kwargs: Any) -> int:
@@ -58,10 +62,33 @@ class FakeXArmAPI:
         if self.refuse_connect:
             raise Exception("connect socket failed")
         self.connected = True
+        self._reporter = threading.Thread(target=self._report_loop, daemon=True)
+        self._reporter.start()
 
     def disconnect(self) -> None:
         self.calls.append(("disconnect", (), {}))
         self.connected = False
+        if self._reporter is not None:
+            self._reporter.join(timeout=1)
+
+    def _report_loop(self) -> None:
+        """The controller's state report (port 30003 with report_type 'real'), delivered to the callbacks."""
+        while self.connected:
+            if self.report_hz > 0:
+                for callback in list(self.report_callbacks):
+                    callback({"joints": list(self.angles), "error_code": self.error_code, "state": self.state})
+            time.sleep(1.0 / self.report_hz if self.report_hz > 0 else 0.01)
+
+    def register_report_callback(self, callback=None, **kwargs: Any) -> bool:
+        self.calls.append(("register_report_callback", (callback,), kwargs))
+        self.report_callbacks.append(callback)
+        return True
+
+    def release_report_callback(self, callback=None) -> bool:
+        self.calls.append(("release_report_callback", (callback,), {}))
+        if callback in self.report_callbacks:
+            self.report_callbacks.remove(callback)
+        return True
 
     def get_version(self) -> tuple[int, str]:
         return self._call("get_version"), "v2.6.0"

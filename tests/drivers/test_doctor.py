@@ -74,6 +74,7 @@ def test_everything_passes_on_healthy_fakes(tmp_path, monkeypatch):
     items = by_item(checks)
     assert "30.0 fps" in items["camera streaming"].detail
     assert "v2.6.0" in items["firmware version"].detail
+    assert items["state reports"].ok is True
     assert "ms on tcp/127.0.0.1" in items["e-stop over Zenoh"].detail
     assert "1.0 days old" in items["calibration"].detail
     assert apis[0].names()[-1] == "disconnect"  # the doctor closes what it opened
@@ -100,6 +101,14 @@ def test_each_fault_fails_its_item_with_a_hint(tmp_path, monkeypatch):
     assert "wants eye_to_hand" in items["calibration"].detail
     assert items["calibration"].hint.startswith("recalibrate")
     assert items["arm reachable"].ok is True
+
+
+def test_silent_state_reports_fail(tmp_path, monkeypatch):
+    profile = lab_profile(tmp_path)
+    make_camera, make_arm, _ = fakes(profile, monkeypatch, tmp_path, setup_api=lambda api: setattr(api, "report_hz", 0))
+    items = by_item(run_checks(profile, make_camera, make_arm, zenoh=False))
+    assert items["state reports"].ok is False and "0 Hz" in items["state reports"].detail
+    assert "30003" in items["state reports"].hint
 
 
 def test_unreachable_devices_fail_every_dependent_item(tmp_path, monkeypatch):

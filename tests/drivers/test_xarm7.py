@@ -54,7 +54,7 @@ def test_connect_uses_real_report_and_runs_the_enable_sequence(fakes):
     api = fakes[0]
     assert api.init == {"port": "192.168.1.208", "is_radian": False, "do_not_open": True, "report_type": "real"}
     names = api.names()
-    assert names[:3] == ["connect", "get_version", *ENABLE[:1]]
+    assert names[:4] == ["connect", "register_report_callback", "get_version", *ENABLE[:1]]
     # enable in mode 0, configure safety, then the same sequence into servo mode
     first = names.index("clean_error")
     assert names[first : first + 5] == ENABLE
@@ -94,6 +94,7 @@ def test_servo_converts_radians_to_degrees_and_state_back(fakes):
     assert name == "set_servo_angle_j" and kwargs == {"is_radian": False}
     assert args[0] == pytest.approx(np.degrees(q).tolist())
     api.realtime_joint_speeds = [10.0] * 7
+    time.sleep(0.03)  # a few 100 Hz reports
     state = arm.read_state()
     assert state.q == pytest.approx(q) and state.qd == pytest.approx([math.radians(10)] * 7)
     assert state.fault_code == 0
@@ -221,10 +222,10 @@ def test_dropped_link_is_a_readable_error_and_close_still_tries_everything(fakes
     with pytest.raises(NotConnectedError):
         arm.servo(np.zeros(7))
     arm.close()
-    tail = api.names()[-4:]
-    assert tail == ["set_state", "set_mode", "set_state", "disconnect"]
+    tail = api.names()[-5:]
+    assert tail == ["set_state", "release_report_callback", "set_mode", "set_state", "disconnect"]
     arm.close()  # idempotent
-    assert api.names()[-4:] == tail
+    assert api.names()[-5:] == tail
 
 
 def test_close_leaves_servo_mode(fakes):
@@ -232,12 +233,8 @@ def test_close_leaves_servo_mode(fakes):
     with arm:
         arm.servo(np.zeros(7))
     api = fakes[0]
-    assert [c[:2] for c in api.calls[-4:]] == [
-        ("set_state", (4,)),
-        ("set_mode", (0,)),
-        ("set_state", (0,)),
-        ("disconnect", ()),
-    ]
+    assert [c[:2] for c in api.calls[-3:]] == [("set_mode", (0,)), ("set_state", (0,)), ("disconnect", ())]
+    assert api.calls[-5][:2] == ("set_state", (4,)) and api.calls[-4][0] == "release_report_callback"
     assert not arm.is_connected and api.mode == 0
     with pytest.raises(NotConnectedError):
         arm.read_state()
@@ -304,3 +301,18 @@ def test_servo_refuses_a_jump_larger_than_the_per_tick_limit(fakes):
     with pytest.raises(ValueError, match="jumps"):  # after a fault the reference is the measured position again
         arm.clear_fault()
         arm.servo(q0 + 0.2)
+
+
+def test_state_stamp_is_the_report_time_so_a_silent_report_link_shows(fakes):
+    arm = make_arm(fakes)
+    arm.connect()
+    api = fakes[0]
+    time.sleep(0.05)
+    first = arm.read_state().stamp_s
+    time.sleep(0.05)
+    assert arm.read_state().stamp_s > first and arm.report_count >= 5
+    api.report_hz = 0  # the report socket goes quiet while commands still work
+    time.sleep(0.05)
+    frozen = arm.read_state().stamp_s
+    time.sleep(0.05)
+    assert arm.read_state().stamp_s == frozen
