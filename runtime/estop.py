@@ -69,7 +69,7 @@ def run_terminal_node(bus: Bus, node: str, rate_hz: float, echo=print) -> None:
                 echo("input closed: E-STOP sent, quitting")
                 return
             estop.press("e-stop key pressed")
-            echo("E-STOP sent. Reset from the console (or `goalvla run`'s prompt) after checking the cell.")
+            echo("E-STOP sent. Check the cell, then press Reset on the console.")
     except KeyboardInterrupt:
         estop.press("e-stop node interrupted (Ctrl-C)")
         echo("Ctrl-C: E-STOP sent, quitting")

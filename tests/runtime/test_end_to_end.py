@@ -1,8 +1,8 @@
 """Whole runs on the sim through the real stages: reasoning (offline backends), grounding, the manipulation
 chain, the gate, the executor and verification, with the runtime's supervision and record around them.
 
-Until pipeline.contact is part of the build, the contact decision comes from a stand-in that grasps the target
-from above using the simulator's pose of it; everything downstream (goal pose = grounded motion applied to the
+Until pipeline.contact is part of the build, the contact decision comes from runtime.sim_oracle (a top-down
+grasp of the target at the simulator's pose of it); everything downstream (goal pose = grounded motion applied to the
 grasp, planning, gate, execution, verification by re-grounding) is the real code."""
 
 from __future__ import annotations
@@ -13,39 +13,19 @@ import json
 import numpy as np
 import pytest
 from runtime_helpers import free_port
-from test_manipulation import top_down_grasp
 
-from drivers.description import load_robot_spec
 from runtime.config import load_profile
 from runtime.devices import open_devices
-from runtime.manipulation import ContactPoses
 from runtime.runner import Runtime
+from runtime.sim_oracle import GroundTruthGraspStages
 from runtime.stages import PipelineStages
 from runtime.states import State
-from safety.geometry import Primitive
 
 pytestmark = pytest.mark.slow
 pytest.importorskip("pipeline.grounding.ground", reason="the grounding stage is not part of this build")
 HAS_CONTACT = importlib.util.find_spec("pipeline.contact") is not None and hasattr(
     importlib.import_module("pipeline.contact"), "plan_contact"
 )
-
-
-class GroundTruthGrasp(PipelineStages):
-    """PipelineStages with the contact decision taken from the simulator (the target's true pose)."""
-
-    def __init__(self, target: str, size_m: tuple[float, float, float]) -> None:
-        super().__init__()
-        self.target, self.size_m = target, size_m
-
-    def contact_poses(self, ctx):
-        T_obj = ctx.devices.world.object_pose(self.target)
-        T_contact = top_down_grasp(T_obj, self.size_m[2] / 2 + 0.005)
-        T_pre = T_contact.copy()
-        T_pre[2, 3] += 0.12
-        T_goal = ctx.motion.T_base @ T_contact  # the grounded object motion carries the grasp to the goal
-        held = Primitive(f"held:{self.target}", load_robot_spec().tcp_link, "box", self.size_m)
-        return ContactPoses("grasp", T_pre, T_contact, T_goal, min(self.size_m[:2]) - 0.02, held)
 
 
 def _profile(sim_config_path, seed: int):
@@ -57,7 +37,7 @@ def _profile(sim_config_path, seed: int):
 
 def test_put_the_red_block_on_the_plate(sim_config_path, tmp_path):
     profile = _profile(sim_config_path, seed=3)
-    stages = GroundTruthGrasp("red_block", (0.05, 0.05, 0.05))
+    stages = GroundTruthGraspStages()
     with open_devices(profile) as devices, Runtime(profile, devices, stages, confirm="yes") as rt:
         result = rt.run("put the red block on the white plate", tmp_path / "run")
         plate = devices.world.object_pose("white_plate")[:3, 3]

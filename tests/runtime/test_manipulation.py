@@ -1,8 +1,7 @@
 """The manipulation chain (motion + safety, phase by phase) moves a real sim object where the contact poses say.
 
-The contact poses here are built from the simulator's ground truth (a top-down grasp across the block), standing
-in for the contact stage so that the chain itself is what is tested: planning, per-phase gate approval and
-streaming through the executor."""
+The contact poses come from the simulator's ground truth (runtime.sim_oracle), standing in for the contact
+stage so that the chain itself is what is tested: planning, per-phase gate approval, streaming."""
 
 from __future__ import annotations
 
@@ -19,28 +18,10 @@ from runtime.context import RunContext, StageError
 from runtime.devices import open_devices
 from runtime.manipulation import ContactPoses, plan_manipulation
 from runtime.record import RunRecord
+from runtime.sim_oracle import top_down_grasp
 from safety.geometry import Primitive
 
 pytestmark = pytest.mark.slow
-
-
-def top_down_grasp(T_base_object: np.ndarray, height_m: float) -> np.ndarray:
-    """TCP pose pointing down at the object's axis, fingers closing across one of its side-face pairs: of the
-    four equivalent choices, the one turning the wrist least from the home posture (TCP x along base x)."""
-    z = np.array([0.0, 0.0, -1.0])
-    best = None
-    for k in range(4):
-        angle = k * np.pi / 2
-        y = np.cos(angle) * T_base_object[:3, 0] + np.sin(angle) * T_base_object[:3, 1]
-        y = y - (y @ z) * z
-        y /= np.linalg.norm(y)
-        x = np.cross(y, z)
-        if best is None or x[0] > best[0][0]:
-            best = (x, y)
-    T = np.eye(4)
-    T[:3, :3] = np.column_stack([best[0], best[1], z])
-    T[:3, 3] = T_base_object[:3, 3] + [0.0, 0.0, height_m]
-    return T
 
 
 @pytest.fixture
