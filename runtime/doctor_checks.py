@@ -12,7 +12,9 @@ import io
 import itertools
 import threading
 import time
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from runtime.config import Profile
@@ -33,6 +35,8 @@ PACKAGES = {  # distribution -> import name
     "xarm-python-sdk": "xarm",
     "pyorbbecsdk2": "pyorbbecsdk",
 }
+EXTRA_PINS = {"pyorbbecsdk2": "2.1.2"}  # installed by setup.sh with --no-deps, so not in pyproject.toml
+PYPROJECT = Path(__file__).resolve().parents[1] / "pyproject.toml"
 HARDWARE_ONLY = {"xarm-python-sdk": "xarm7", "pyorbbecsdk2": "femto_bolt"}
 
 
@@ -44,9 +48,21 @@ class Check:
     hint: str = ""
 
 
-def check_packages(profile: Profile) -> list[Check]:
-    out, problems = [], []
-    versions = []
+def pinned_versions(pyproject: Path = PYPROJECT) -> dict[str, str]:
+    """name -> version of every `name==version` dependency in pyproject.toml, plus pyorbbecsdk2 (installed apart)."""
+    pins = dict(EXTRA_PINS)
+    if pyproject.exists():
+        for dep in tomllib.loads(pyproject.read_text())["project"]["dependencies"]:
+            name, sep, version = dep.partition("==")
+            if sep:
+                pins[name.strip()] = version.strip()
+    return pins
+
+
+def check_packages(profile: Profile, pins: dict[str, str] | None = None) -> list[Check]:
+    """Installed, importable, and at the pinned version (the combination that was tested together)."""
+    pins = pinned_versions() if pins is None else pins
+    problems, versions = [], []
     for dist, module in PACKAGES.items():
         needed = HARDWARE_ONLY.get(dist) in (None, profile.robot.kind, profile.camera.kind)
         try:
@@ -54,17 +70,19 @@ def check_packages(profile: Profile) -> list[Check]:
             if needed:
                 with contextlib.redirect_stdout(io.StringIO()):  # the xArm SDK prints its version on import
                     importlib.import_module(module)
-            versions.append(f"{dist} {version}")
         except Exception as e:
             if needed:
                 problems.append(f"{dist}: {type(e).__name__}: {e}")
+            continue
+        versions.append(f"{dist} {version}")
+        if needed and dist in pins and version != pins[dist]:
+            problems.append(f"{dist} {version} installed, {pins[dist]} pinned")
     import cv2
 
     if not hasattr(cv2, "calibrateHandEye") or not cv2.__version__.startswith("4."):
         problems.append(f"OpenCV {cv2.__version__} has no calibrateHandEye (needs 4.x)")
     hint = "run ./setup.sh (pyorbbecsdk2: `pip install --no-deps pyorbbecsdk2==2.1.2`; OpenCV pinned to 4.x)"
-    out.append(Check("packages", not problems, "; ".join(problems) or ", ".join(versions), hint if problems else ""))
-    return out
+    return [Check("packages", not problems, "; ".join(problems) or ", ".join(versions), hint if problems else "")]
 
 
 def check_camera(camera: Any, expected_fps: float, simulated: bool = False) -> list[Check]:

@@ -17,6 +17,7 @@ from drivers.femto_bolt import camera as femto_camera
 from drivers.xarm7 import XArm7
 from runtime.config import load_profile
 from runtime.doctor import render, run_checks, run_doctor
+from runtime.doctor_checks import check_packages, pinned_versions
 
 PERIOD_US = 33_333
 
@@ -131,3 +132,13 @@ def test_doctor_on_the_sim_passes_and_returns_zero():
     assert run_doctor(profile, console) == 0
     text = console.export_text()
     assert "all checks passed" in text and f"on {endpoint}" in text and "simulated arm" in text
+
+
+def test_packages_are_checked_against_the_pins(tmp_path):
+    profile = lab_profile(tmp_path)
+    pins = pinned_versions()
+    assert pins["xarm-python-sdk"] == "1.18.4" and pins["pyorbbecsdk2"] == "2.1.2"
+    (ok,) = check_packages(profile, pins)
+    assert ok.ok is True and "xarm-python-sdk 1.18.4" in ok.detail
+    (bad,) = check_packages(profile, {**pins, "mujoco": "0.0.1"})
+    assert bad.ok is False and "0.0.1 pinned" in bad.detail and "setup.sh" in bad.hint
