@@ -39,6 +39,7 @@ class PlannerConfig:
     range_rad: float | None = 1.0  # longest tree extension (planners with a range); None: OMPL's default
     search_resolution_rad: float = 0.05  # motion-check step during the search (halved on each retry)
     resolution_rad: float = 0.005  # largest joint motion between the final path's collision checks
+    cut_clearance_m: float = 0.005  # extra obstacle clearance a corner cut must keep (Planner.smooth)
     window_rad: float = np.pi  # continuous joints are searched within this of the start/goal range
 
 
@@ -100,6 +101,39 @@ class Planner:
         raise PlanningError(
             f"{self.config.planner} found no collision-free path in {self.config.attempts} x "
             f"{self.config.timeout_s} s from {np.round(q_start, 3)} to {np.round(q_goal, 3)}"
+        )
+
+    def smooth(self, waypoints: np.ndarray, fraction: float = 0.25) -> np.ndarray:
+        """Cut the corners of a path for blended execution: interior waypoint i becomes the two points `fraction`
+        of the way towards its neighbours, where the straight cut between them is free with every obstacle grown
+        by `cut_clearance_m` (else half the fraction, else the corner stays). A cut is optional, so it is held to
+        the stricter test: the extra clearance covers what could hide between two checks, so the gate's own
+        checks at other configurations find no contact. The rest of the path stays on the checked segments."""
+        if not 0 < fraction <= 0.5:
+            raise ValueError(f"fraction must be in (0, 0.5] so neighbouring cuts do not cross, got {fraction}")
+        strict = Planner(self._inflated_world(), self.limits, self.config)
+        out = [waypoints[0]]
+        for prev, corner, nxt in zip(waypoints[:-2], waypoints[1:-1], waypoints[2:], strict=True):
+            for f in (fraction, fraction / 2):
+                a, b = corner + f * (prev - corner), corner + f * (nxt - corner)
+                if strict.segment_free(a, b):
+                    out += [a, b]
+                    break
+            else:
+                out.append(corner)
+        out.append(waypoints[-1])
+        return np.array(out)
+
+    def _inflated_world(self) -> CollisionWorld:
+        """The world with every obstacle grown by cut_clearance_m (self-collision, table and point cloud as is)."""
+        w = self.world
+        return CollisionWorld(
+            w.robot.copy(),
+            w.config,
+            obstacles=[o.padded(self.config.cut_clearance_m) for o in w.obstacles],
+            points=w.points,
+            held=w.held_object,
+            gripper_width_m=w.gripper_width_m,
         )
 
     def _bounds(self, q_start: np.ndarray, q_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

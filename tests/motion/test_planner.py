@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from conftest import wall_between
 
-from motion.approval import approve
+from motion.approval import approve, gate_check
 from motion.planner import Planner, PlannerConfig, PlanningError
 from safety.collision import CollisionWorld
 from safety.geometry import Primitive, pose
@@ -42,14 +42,35 @@ def test_detour_around_a_wall_passes_the_gate(robot, safety, limits, timer, plan
     np.testing.assert_array_equal(path.waypoints[[0, -1]], [Q_LEFT, Q_RIGHT])
     assert _dense_free(world, path.waypoints)
     for blend in (False, True):
-        check = None
-        if blend:
-            from motion.approval import gate_check
-
-            check = gate_check(world, Q_LEFT)
+        check = gate_check(world, Q_LEFT) if blend else None
         traj = timer.time([path.waypoints], blend=blend, check=check)
         approved = approve(traj, world, q_current=Q_LEFT)  # raises GateRefused with the reasons otherwise
         assert approved.report.ok
+
+
+def test_smoothing_cuts_free_corners_and_blending_beats_stopping(robot, safety, limits, timer, free_world):
+    p = Planner(free_world, limits)
+    up = np.array([0.0, -0.3, 0.0, 1.3, 0.0, 1.2, 0.0])
+    path = np.array([Q_LEFT, up, Q_RIGHT])
+    smooth = p.smooth(path)
+    np.testing.assert_allclose(smooth[1:3], [up + 0.25 * (Q_LEFT - up), up + 0.25 * (Q_RIGHT - up)])
+    stop = timer.time([path])
+    blended = timer.time([smooth], blend=True, check=gate_check(free_world, Q_LEFT))
+    assert approve(blended, free_world, q_current=Q_LEFT).report.ok
+    assert blended.duration_s < 0.85 * stop.duration_s
+    with pytest.raises(ValueError, match="fraction"):
+        p.smooth(path, fraction=0.7)
+
+
+def test_smoothing_keeps_corners_it_cannot_cut_safely(robot, safety, limits, timer):
+    """Around a wall the detour's corners hug the obstacle: what smoothing returns is still free and passes the
+    gate (cuts must clear 5 mm more than the padding)."""
+    world = CollisionWorld(robot.copy(), safety, obstacles=[wall_between(robot, Q_LEFT, Q_RIGHT)])
+    p = Planner(world, limits)
+    smooth = p.smooth(p.plan(Q_LEFT, Q_RIGHT).waypoints)
+    assert _dense_free(world, smooth)
+    blended = timer.time([smooth], blend=True, check=gate_check(world, Q_LEFT))
+    assert approve(blended, world, q_current=Q_LEFT).report.ok
 
 
 def test_invalid_queries_are_explained(robot, safety, limits):
