@@ -14,8 +14,7 @@ import contextlib
 import math
 import os
 import threading
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,10 +24,9 @@ from motion.approval import ApprovedTrajectory
 from motion.clock import Clock, WallClock
 from motion.limits import MotionLimits
 from motion.pathclock import PathClock
+from motion.report import ExecutionReport, GripperOutcome, Jitter, Status
 from safety.config import SafetyConfig
 from safety.trajectory import GripperEvent, JointTrajectory
-
-Status = Literal["completed", "aborted", "estopped", "fault"]
 
 
 class ExecutionRefused(RuntimeError):
@@ -56,45 +54,6 @@ class ExecutorConfig:
             max_step_rad=safety.max_joint_step_rad,
             tracking_error_max_rad=robot.tracking_error_max_rad,
         )
-
-
-@dataclass(frozen=True)
-class GripperOutcome:
-    event: GripperEvent
-    width_m: float | None = None  # measured at the end of a close
-    grasped: bool | None = None  # close only: fingers stopped on something
-
-
-@dataclass(frozen=True)
-class Jitter:
-    """|actual tick period - nominal| [s]."""
-
-    p50_s: float
-    p99_s: float
-    max_s: float
-
-    @classmethod
-    def of(cls, wake_times: list[float], period: float) -> Jitter:
-        if len(wake_times) < 2:
-            return cls(0.0, 0.0, 0.0)
-        err = np.abs(np.diff(wake_times) - period)
-        return cls(float(np.percentile(err, 50)), float(np.percentile(err, 99)), float(err.max()))
-
-
-@dataclass(frozen=True)
-class ExecutionReport:
-    status: Status
-    reason: str
-    ticks: int
-    late_ticks: int  # driver calls that overran into a later tick
-    jitter: Jitter
-    max_tracking_error_rad: float
-    max_step_rad: float  # largest set-point change actually sent
-    gripper: tuple[GripperOutcome, ...]
-    times_s: np.ndarray = field(repr=False)  # clock time of each tick
-    tau_s: np.ndarray = field(repr=False)  # trajectory time commanded at each tick
-    q_cmd: np.ndarray = field(repr=False)  # (ticks, dof) set-points sent
-    q_meas: np.ndarray = field(repr=False)  # (ticks, dof) measured at the start of each tick
 
 
 class _Stop(Exception):

@@ -11,35 +11,25 @@ A segment whose TCP would move faster than the Cartesian limit is re-timed with 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from itertools import pairwise
 from typing import Literal
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization, Trajectory
+from ruckig import RuckigError, Trajectory
 
+from motion.blending import crossing_velocities, drop_blends_at
 from motion.limits import MotionLimits
+from motion.segments import TimingError, ruckig_segment, scaled_limits
 from safety.trajectory import GripperEvent, JointTrajectory
 
-# Crossing speed cap as a fraction of the joint velocity limit: below 1 so a crossing need not brake at full jerk.
-BLEND_SPEED_FRACTION = 0.9
-# Crossing speeds tried per joint (fractions of the cap) and coordinate-descent sweeps over all waypoints.
-BLEND_LEVELS = (-1.0, -0.6, -0.3, 0.0, 0.3, 0.6, 1.0)
-BLEND_SWEEPS = 3
 # A blended segment too fast for the TCP cap is slowed (with its crossings) unless that takes a factor below this.
 MIN_BLEND_SLOWDOWN = 0.5
-# Ruckig's profiles may overshoot a limit by ~1e-5 relative; the gate tolerates only rounding, so time a hair
-# inside the limits (costs at most 0.1 % of duration).
-HEADROOM = 0.999
 # A segment whose sampled TCP speed exceeds TCP_SPEED_ACCEPT of the limit is re-timed to reach TCP_SPEED_TARGET.
 TCP_SPEED_ACCEPT, TCP_SPEED_TARGET = 0.99, 0.97
 # A check returns the times [s] of the samples it rejects (empty: accepted).
 Check = Callable[[JointTrajectory], Sequence[float]]
 TcpPositions = Callable[[np.ndarray], np.ndarray]  # (N, dof) -> (N, 3), e.g. RobotModel.tcp_positions
-
-
-class TimingError(RuntimeError):
-    """Ruckig found no trajectory for a segment, or the input path is unusable."""
 
 
 class _TooFast(TimingError):
@@ -77,37 +67,6 @@ Piece = Trajectory | _Hold
 Step = np.ndarray | GripperAction
 
 
-def _duration(q0, v0, q1, v1, limits: MotionLimits) -> float:
-    try:
-        return _ruckig(q0, v0, q1, v1, limits).duration
-    except (TimingError, RuckigError):
-        return np.inf
-
-
-def _scaled(limits: MotionLimits, f: float) -> MotionLimits:
-    return replace(
-        limits, velocity=limits.velocity * f, acceleration=limits.acceleration * f**2, jerk=limits.jerk * f**3
-    )
-
-
-def _ruckig(q0, v0, q1, v1, limits: MotionLimits) -> Trajectory:
-    """Time-optimal state-to-state trajectory; rest-to-rest is phase-synchronised (a straight joint line)."""
-    dof = limits.dof
-    inp = InputParameter(dof)
-    inp.current_position, inp.current_velocity, inp.current_acceleration = q0, v0, np.zeros(dof)
-    inp.target_position, inp.target_velocity, inp.target_acceleration = q1, v1, np.zeros(dof)
-    inp.max_velocity = limits.velocity * HEADROOM
-    inp.max_acceleration = limits.acceleration * HEADROOM
-    inp.max_jerk = limits.jerk * HEADROOM
-    rest = not (np.any(v0) or np.any(v1))
-    inp.synchronization = Synchronization.Phase if rest else Synchronization.Time
-    traj = Trajectory(dof)
-    result = Ruckig(dof).calculate(inp, traj)
-    if result not in (Result.Working, Result.Finished):
-        raise TimingError(f"Ruckig failed ({result}) from q={np.round(q0, 4)} to q={np.round(q1, 4)}")
-    return traj
-
-
 class TrajectoryTimer:
     """Times joint paths and gripper actions for one arm at one control period dt [s]."""
 
@@ -127,19 +86,19 @@ class TrajectoryTimer:
         """Rest-to-rest straight-line segment, and the uniform limit scale (<= 1) that kept its sampled TCP speed
         under the Cartesian limit."""
         zero, scale = np.zeros(self.limits.dof), 1.0
-        traj = _ruckig(q0, zero, q1, zero, self.limits)
+        traj = ruckig_segment(q0, zero, q1, zero, self.limits)
         for _ in range(4):
             peak = self._tcp_peak(traj)
             if peak <= self.max_tcp_speed * TCP_SPEED_ACCEPT:
                 break
             scale *= self.max_tcp_speed * TCP_SPEED_TARGET / peak
-            traj = _ruckig(q0, zero, q1, zero, _scaled(self.limits, scale))
+            traj = ruckig_segment(q0, zero, q1, zero, scaled_limits(self.limits, scale))
         return traj, scale
 
     def blended_segment(self, q0, v0, q1, v1, scale: float) -> Trajectory:
         """State-to-state segment at the limits scaled like its rest-to-rest version; TimingError when its TCP
         would still be too fast (it cannot slow down further and still meet its crossing velocities)."""
-        traj = _ruckig(q0, v0, q1, v1, _scaled(self.limits, scale))
+        traj = ruckig_segment(q0, v0, q1, v1, scaled_limits(self.limits, scale))
         peak = self._tcp_peak(traj)
         if peak > self.max_tcp_speed * TCP_SPEED_ACCEPT:
             raise _TooFast(peak, self.max_tcp_speed)
@@ -151,41 +110,6 @@ class TrajectoryTimer:
         t = np.append(np.arange(0.0, traj.duration, self.dt), traj.duration)
         p = self.tcp_positions(np.array([traj.at_time(x)[0] for x in t]))
         return float(np.max(np.linalg.norm(np.diff(p, axis=0), axis=1) / np.maximum(np.diff(t), 1e-12)))
-
-    def blend_velocities(self, waypoints: np.ndarray, rest: list[tuple[Trajectory, float]]) -> np.ndarray:
-        """Crossing velocity per waypoint (ends at rest), chosen to shorten the chain of segments.
-
-        Start: per joint, twice the smaller of the neighbouring segments' mean speeds (rest-to-rest timing) where
-        both move the joint the same way, else zero. Then coordinate descent: each joint's crossing speed at each
-        waypoint takes the value from BLEND_LEVELS (times its cap) that minimises the two adjacent segments'
-        durations. Caps keep every crossing below both segments' scaled velocity limits.
-        """
-        v = np.zeros_like(waypoints)
-        if len(waypoints) < 3:
-            return v
-        durations = np.array([traj.duration for traj, _ in rest])
-        scales = np.array([scale for _, scale in rest])
-        mean = np.diff(waypoints, axis=0) / np.maximum(durations, 1e-9)[:, None]
-        before, after = mean[:-1], mean[1:]
-        same = np.sign(before) * np.sign(after) > 0
-        cap = np.minimum(scales[:-1], scales[1:])[:, None] * self.limits.velocity * BLEND_SPEED_FRACTION
-        v[1:-1] = np.where(same, np.sign(after) * np.minimum(2.0 * np.minimum(np.abs(before), np.abs(after)), cap), 0)
-        limits = [_scaled(self.limits, f) for f in scales]
-
-        def cost(i: int) -> float:  # durations of the two segments meeting at waypoint i
-            return sum(_duration(waypoints[k], v[k], waypoints[k + 1], v[k + 1], limits[k]) for k in (i - 1, i))
-
-        for _ in range(BLEND_SWEEPS):
-            for i in range(1, len(waypoints) - 1):
-                for j in range(self.limits.dof):
-                    best, best_value = cost(i), v[i, j]
-                    for level in BLEND_LEVELS:
-                        v[i, j] = level * cap[i - 1, j]
-                        c = cost(i)
-                        if c < best - 1e-9:
-                            best, best_value = c, v[i, j]
-                    v[i, j] = best_value
-        return v
 
     # -- whole sequences ---------------------------------------------------------------------------------------
     def time(self, steps: Sequence[Step], blend: bool = False, check: Check | None = None) -> JointTrajectory:
@@ -205,7 +129,7 @@ class TrajectoryTimer:
         stop = self._sample(self._pieces(steps, [np.zeros_like(p) for p in paths], rest, []))[0]
         if not blend:
             return stop
-        velocities = [self.blend_velocities(p, r) for p, r in zip(paths, rest, strict=True)]
+        velocities = [crossing_velocities(p, r, self.limits) for p, r in zip(paths, rest, strict=True)]
         slow = [np.ones(len(p) - 1) for p in paths]  # extra slow-down of blended segments for the TCP cap
         while True:
             try:
@@ -226,7 +150,7 @@ class TrajectoryTimer:
                 return traj
             if not any(np.any(v) for v in velocities):
                 return stop
-            _drop_blends_at(bad_times, starts, steps, velocities, self.dt)
+            drop_blends_at(bad_times, starts, _owners(steps), velocities, self.dt)
 
     def _checked(self, steps: Sequence[Step]) -> list[Step]:
         out: list[Step] = []
@@ -309,10 +233,9 @@ class TrajectoryTimer:
         return list(traj.times[np.any((q < self.limits.lower) | (q > self.limits.upper), axis=1)])
 
 
-def _drop_blends_at(bad_times, starts, steps, velocities: list[np.ndarray], dt: float) -> None:
-    """Zero the crossing velocities at both ends of every segment holding a rejected sample (a finite-difference
-    sample reaches 3 periods back, so segments ending up to 3 dt before it count too)."""
-    owners: list[tuple[int, int] | None] = []  # (path, segment) of each piece; None for gripper holds
+def _owners(steps: Sequence[Step]) -> list[tuple[int, int] | None]:
+    """(path, segment) of every piece in order; None for gripper holds."""
+    owners: list[tuple[int, int] | None] = []
     p = -1
     for s in steps:
         if isinstance(s, GripperAction):
@@ -320,13 +243,4 @@ def _drop_blends_at(bad_times, starts, steps, velocities: list[np.ndarray], dt: 
         else:
             p += 1
             owners += [(p, k) for k in range(len(s) - 1)]
-    changed = False
-    for t in bad_times:
-        for i, owner in enumerate(owners):
-            if owner is not None and starts[i] - 1e-9 <= t and starts[i + 1] >= t - 3 * dt:
-                path, k = owner
-                changed |= bool(np.any(velocities[path][k : k + 2]))
-                velocities[path][k : k + 2] = 0.0
-    if not changed:  # rejected samples only in rest-to-rest parts: fall back everywhere
-        for v in velocities:
-            v[:] = 0.0
+    return owners
