@@ -1,0 +1,211 @@
+"""Spatial grounding: the object's 3D motion from the initial RGB-D view to the generated goal view.
+
+Steps: align the goal's relative depth on the background; lift both object masks to camera-frame clouds;
+match object pixels by dense features (mutual, thresholded, restricted to the goal mask); keep matches that
+preserve pairwise distances; Umeyama similarity in RANSAC with a threshold scaled to the object; optional ICP
+on the masked clouds; refuse, with a reason, whenever a check fails.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
+from pipeline.grounding.hypotheses import mask_closeness, sweep_hypotheses
+from pipeline.grounding.matching import match_pixels, pairwise_consistency
+from pipeline.grounding.refine import icp_refine
+from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
+from pipeline.grounding.umeyama import Similarity, ransac_similarity, umeyama
+from pipeline.grounding.verify import chromaticity, make_view, view_consistency
+from pipeline.perception.features import FeatureExtractor
+
+MAX_CONSISTENCY_MATCHES = 1500
+
+
+def object_size(points: np.ndarray) -> float:
+    """Robust extent of a cloud [m]: the diagonal of its 5-95 percentile box."""
+    lo, hi = np.percentile(points, [5, 95], axis=0)
+    return float(np.linalg.norm(hi - lo))
+
+
+def refuse(reason: str, **fields) -> ObjectMotion:
+    return ObjectMotion(ok=False, reason=reason, **fields)
+
+
+def ground(
+    inp: GroundingInput,
+    features: FeatureExtractor,
+    config: GroundingConfig | None = None,
+    T_base_camera: np.ndarray | None = None,
+) -> ObjectMotion:
+    """ObjectMotion (x_goal = R x_init + t, camera frame) or a refusal with its reason."""
+    cfg = config or GroundingConfig()
+    K = inp.intrinsics
+    depth0 = np.where(np.isfinite(inp.depth0) & (inp.depth0 > 0), inp.depth0, np.nan).astype(np.float32)
+    background = ~(inp.mask0 | inp.mask1)
+    try:
+        align = fit_depth_alignment(depth0, inp.depth1, background, inp.depth1_kind, seed=cfg.seed)
+    except DepthAlignmentError as e:
+        return refuse(f"depth alignment failed: {e}")
+    common = {"depth_residual_m": align.residual_m, "T_base_camera": T_base_camera}
+    if align.inlier_fraction < cfg.min_background_inliers or align.residual_m > cfg.max_depth_residual_m:
+        return refuse(
+            f"goal depth does not fit the scene: background residual {align.residual_m * 1000:.1f} mm "
+            f"(limit {cfg.max_depth_residual_m * 1000:.0f}), inliers {align.inlier_fraction:.0%} "
+            f"(need {cfg.min_background_inliers:.0%})",
+            **common,
+        )
+    depth1 = align.apply(inp.depth1)
+    points0, points1 = K.unproject_depth_image(depth0), K.unproject_depth_image(depth1)
+    valid0, valid1 = inp.mask0 & np.isfinite(depth0), inp.mask1 & np.isfinite(depth1)
+    if valid0.sum() < cfg.min_inliers or valid1.sum() < cfg.min_inliers:
+        return refuse(f"too few object pixels with depth: {valid0.sum()} initial, {valid1.sum()} goal", **common)
+    rng = np.random.default_rng(cfg.seed)
+    src = np.argwhere(valid0)[:, ::-1]
+    if len(src) > cfg.max_source_pixels:
+        src = src[rng.choice(len(src), cfg.max_source_pixels, replace=False)]
+    dst = np.argwhere(valid1)[:, ::-1]
+    m = match_pixels(
+        features, inp.rgb0, src, inp.rgb1, dst, points0, points1, mutual=cfg.mutual, min_similarity=cfg.min_similarity
+    )
+    cloud0 = points0[valid0]
+    size = object_size(cloud0)
+    common["object_size_m"] = size
+    common["matches"] = len(m.src_px)
+    if len(m.src_px) < cfg.min_inliers:
+        return refuse(f"too few feature matches: {len(m.src_px)} (need {cfg.min_inliers})", **common)
+    P = points0[m.src_px[:, 1], m.src_px[:, 0]]
+    Q = points1[m.dst_px[:, 1], m.dst_px[:, 0]]
+    if len(P) > MAX_CONSISTENCY_MATCHES:
+        keep = rng.choice(len(P), MAX_CONSISTENCY_MATCHES, replace=False)
+        P, Q = P[keep], Q[keep]
+    support = pairwise_consistency(P, Q, cfg.consistency_rel * size, cfg.scale_range)
+    keep = support >= cfg.min_consistency * support.max()
+    P, Q = P[keep], Q[keep]
+    threshold = max(cfg.inlier_min_m, cfg.inlier_rel * size)
+    fits = ransac_similarity(
+        P,
+        Q,
+        threshold,
+        iterations=cfg.ransac_iterations,
+        min_sample_spread_m=0.1 * size,
+        scale_range=cfg.scale_range,
+        top_k=cfg.hypotheses,
+        seed=cfg.seed,
+    )
+    if not fits:
+        return refuse("registration found no non-degenerate hypothesis with a plausible scale", **common)
+    chroma0, chroma1 = chromaticity(inp.rgb0), chromaticity(inp.rgb1)
+    voxel = max(cfg.icp_voxel_m, size / 40)
+    view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
+    view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel)
+    tol = max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
+    up = _up_direction(points0[background & np.isfinite(depth0)], T_base_camera, rng)
+    grow = int(np.ceil(0.1 * size * K.fx / float(np.median(cloud0[:, 2]))))
+    candidates = [f.transform for f in fits] + sweep_hypotheses(
+        view0.cloud,
+        view0.normals,
+        mask_closeness(inp.mask0, grow),
+        view1.cloud,
+        view1.normals,
+        mask_closeness(inp.mask1, grow),
+        K,
+        up,
+        cfg.sweep_hypotheses,
+    )
+    scored = []
+    for hypothesis in candidates:
+        sim = _refine(hypothesis, view0.cloud, view1.cloud, size, cfg) if cfg.icp else hypothesis
+        scored.append((view_consistency(sim, view0, view1, K, tol), sim))
+    view_score, sim = max(scored, key=lambda x: x[0])
+    dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
+    inliers = dist < threshold
+    n_in = int(inliers.sum())
+    common["inliers"] = n_in
+    ratio = n_in / len(dist)
+    if n_in < cfg.min_inliers or ratio < cfg.min_inlier_ratio:
+        return refuse(
+            f"too few inliers: {n_in} of {len(dist)} object points within {threshold * 1000:.1f} mm of the goal "
+            f"({ratio:.0%}); need {cfg.min_inliers} and {cfg.min_inlier_ratio:.0%}",
+            **common,
+        )
+    spread = _second_extent(view0.cloud[inliers])
+    if spread < cfg.min_spread_rel * size:
+        return refuse(
+            f"degenerate correspondences: inliers lie nearly on a line (second extent {spread * 1000:.1f} mm, "
+            f"object size {size * 1000:.0f} mm)",
+            **common,
+        )
+    lo, hi = cfg.scale_range
+    if not lo <= sim.scale <= hi:
+        return refuse(
+            f"implausible scale {sim.scale:.3f} between goal and initial object (allowed {lo}-{hi})", **common
+        )
+    rms = float(np.sqrt(np.mean(dist[inliers] ** 2)))
+    if rms > cfg.max_registration_residual_rel * size:
+        return refuse(
+            f"registration residual {rms * 1000:.1f} mm too large for a {size * 1000:.0f} mm object",
+            residual_m=rms,
+            **common,
+        )
+    if view_score < cfg.min_view_score:
+        return refuse(
+            f"the motion does not explain the images: view agreement {view_score:.2f} (need {cfg.min_view_score})",
+            residual_m=rms,
+            **common,
+        )
+    centre = cloud0.mean(axis=0)
+    t_rigid = sim.apply(centre[None])[0] - sim.R @ centre  # the centre lands where the similarity puts it
+    confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))
+    return ObjectMotion(
+        ok=True,
+        reason="",
+        R=sim.R,
+        t=t_rigid,
+        scale=sim.scale,
+        residual_m=rms,
+        confidence=confidence,
+        details={"depth_alignment": align.__dict__, "view_score": view_score, "threshold_m": threshold},
+        **common,
+    )
+
+
+def _up_direction(background: np.ndarray, T_base_camera: np.ndarray | None, rng: np.random.Generator) -> np.ndarray:
+    """The table normal in the camera frame: from the calibration, else the dominant background plane."""
+    if T_base_camera is not None:
+        return np.asarray(T_base_camera)[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+    import open3d as o3d
+
+    pts = background[rng.choice(len(background), min(len(background), 5000), replace=False)]
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts.astype(np.float64)))
+    (a, b, c, _), _ = pcd.segment_plane(0.01, 3, 200)
+    n = np.array([a, b, c]) / np.linalg.norm([a, b, c])
+    return -n if n @ pts.mean(axis=0) > 0 else n
+
+
+def _second_extent(points: np.ndarray) -> float:
+    """Extent [m] of a cloud along its second principal axis (uniform-spread estimate, sqrt(12) sigma)."""
+    if len(points) < 3:
+        return 0.0
+    ev = np.linalg.svd(points - points.mean(axis=0), compute_uv=False) / np.sqrt(len(points))
+    return float(np.sqrt(12.0) * ev[1])
+
+
+def _refine(sim: Similarity, cloud0: np.ndarray, cloud1: np.ndarray, size: float, cfg: GroundingConfig) -> Similarity:
+    """ICP of the scaled initial cloud onto the goal cloud, kept only if it stays near the RANSAC answer."""
+    T0 = np.eye(4)
+    T0[:3, :3], T0[:3, 3] = sim.R, sim.t
+    res = icp_refine(sim.scale * cloud0, cloud1, T0, cfg.icp_max_corr_rel * size, max(cfg.icp_voxel_m, size / 40))
+    if res is None or res.fitness < 0.3:
+        return sim
+    dR = res.T[:3, :3] @ sim.R.T
+    angle = np.degrees(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1)))
+    c = sim.scale * cloud0.mean(axis=0)
+    shift = np.linalg.norm((res.T[:3, :3] @ c + res.T[:3, 3]) - (sim.R @ c + sim.t))
+    if angle > 15.0 or shift > 0.25 * size:
+        return sim
+    return Similarity(sim.scale, res.T[:3, :3], res.T[:3, 3])
+
+
+__all__ = ["GroundingConfig", "GroundingInput", "ObjectMotion", "ground", "umeyama"]

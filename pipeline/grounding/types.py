@@ -1,0 +1,133 @@
+"""Grounding inputs, settings and result."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydantic import Field
+
+from drivers.config import StrictModel
+from drivers.types import CameraIntrinsics
+from pipeline.grounding.depth_align import DepthKind
+
+
+class GroundingError(ValueError):
+    """Unusable grounding input (wrong shape, type, empty mask...); the message names the input."""
+
+
+class GroundingConfig(StrictModel):
+    """Settings of our grounding (defaults tuned on bench/grounding.py)."""
+
+    max_source_pixels: int = Field(default=1500, ge=10, description="object pixels of the initial image matched")
+    mutual: bool = Field(default=True, description="keep only mutual nearest neighbours")
+    min_similarity: float = Field(default=0.6, ge=-1, le=1, description="cosine similarity below this is dropped")
+    consistency_rel: float = Field(default=0.08, gt=0, description="pairwise distance tolerance / object size")
+    min_consistency: float = Field(default=0.25, ge=0, le=1, description="share of matches a match must agree with")
+    ransac_iterations: int = Field(default=2000, ge=10)
+    inlier_rel: float = Field(default=0.06, gt=0, description="RANSAC inlier threshold / object size")
+    inlier_min_m: float = Field(default=0.004, gt=0)
+    hypotheses: int = Field(default=6, ge=1, description="RANSAC hypotheses verified against the images")
+    sweep_hypotheses: int = Field(default=40, ge=0, description="geometric sweep hypotheses verified likewise")
+    min_view_score: float = Field(default=0.4, ge=0, le=1, description="refuse below this view agreement")
+    min_inliers: int = Field(default=8, ge=3)
+    min_inlier_ratio: float = Field(default=0.05, ge=0, le=1)
+    scale_range: tuple[float, float] = Field(default=(0.9, 1.1), description="plausible similarity scale")
+    min_spread_rel: float = Field(default=0.15, gt=0, description="inlier spread (2nd axis) / object size")
+    icp: bool = True
+    icp_voxel_m: float = Field(default=0.003, gt=0)
+    icp_max_corr_rel: float = Field(default=0.08, gt=0, description="ICP correspondence distance / object size")
+    max_depth_residual_m: float = Field(default=0.02, gt=0, description="refuse above this alignment residual")
+    min_background_inliers: float = Field(default=0.5, ge=0, le=1)
+    max_registration_residual_rel: float = Field(default=0.05, gt=0, description="inlier RMS / object size")
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class ObjectMotion:
+    """Rigid motion of the target object: x_goal = R @ x_init + t (camera frame), plus how much to trust it.
+
+    `scale` is the similarity scale the goal needed (1 = consistent sizes); `ok` False means refused, with
+    `reason`; R and t are then identity/zero and must not be used.
+    """
+
+    ok: bool
+    reason: str
+    R: np.ndarray = field(default_factory=lambda: np.eye(3))
+    t: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    scale: float = 1.0
+    inliers: int = 0
+    matches: int = 0
+    residual_m: float = float("nan")
+    depth_residual_m: float = float("nan")
+    confidence: float = 0.0
+    object_size_m: float = float("nan")
+    T_base_camera: np.ndarray | None = None
+    details: dict = field(default_factory=dict)
+
+    @property
+    def T_camera(self) -> np.ndarray:
+        """4x4 motion in the camera frame."""
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = self.R, self.t
+        return T
+
+    @property
+    def T_base(self) -> np.ndarray:
+        """4x4 motion in the base frame: T_base_camera T_camera T_base_camera^-1 (needs the calibration)."""
+        if self.T_base_camera is None:
+            raise ValueError("ObjectMotion.T_base: no T_base_camera was given to ground()")
+        return self.T_base_camera @ self.T_camera @ np.linalg.inv(self.T_base_camera)
+
+    def to_json(self) -> dict:
+        """The RESULT.json layout of `goalvla ground`."""
+        out = {
+            "ok": self.ok,
+            "reason": self.reason,
+            "R": self.R.tolist(),
+            "t": self.t.tolist(),
+            "scale": self.scale,
+            "inliers": self.inliers,
+            "residual_m": None if not np.isfinite(self.residual_m) else self.residual_m,
+            "matches": self.matches,
+            "confidence": self.confidence,
+            "depth_residual_m": None if not np.isfinite(self.depth_residual_m) else self.depth_residual_m,
+        }
+        if self.T_base_camera is not None and self.ok:
+            out["T_base_motion"] = self.T_base.tolist()
+        return out
+
+
+@dataclass(frozen=True)
+class GroundingInput:
+    """Initial view (metric depth) and goal view (relative depth prediction), with object masks; validated."""
+
+    rgb0: np.ndarray
+    depth0: np.ndarray
+    mask0: np.ndarray
+    rgb1: np.ndarray
+    depth1: np.ndarray
+    depth1_kind: DepthKind
+    mask1: np.ndarray
+    intrinsics: CameraIntrinsics
+
+    def __post_init__(self) -> None:
+        h, w = self.intrinsics.height, self.intrinsics.width
+        for key in ("rgb0", "rgb1"):
+            a = getattr(self, key)
+            if a.dtype != np.uint8 or a.shape != (h, w, 3):
+                raise GroundingError(f"{key} must be uint8 ({h}, {w}, 3), got {a.dtype} {a.shape}")
+        for key in ("depth0", "depth1"):
+            a = getattr(self, key)
+            if not np.issubdtype(a.dtype, np.floating) or a.shape != (h, w):
+                raise GroundingError(f"{key} must be float ({h}, {w}), got {a.dtype} {a.shape}")
+            if not np.isfinite(a).any():
+                raise GroundingError(f"{key} has no finite value")
+        for key in ("mask0", "mask1"):
+            a = getattr(self, key)
+            if a.dtype != np.bool_ or a.shape != (h, w):
+                raise GroundingError(f"{key} must be bool ({h}, {w}), got {a.dtype} {a.shape}")
+            if not a.any():
+                raise GroundingError(f"{key} is empty: no object pixels")
+        if self.depth1_kind not in ("depth", "disparity"):
+            raise GroundingError(f"depth1_kind must be 'depth' or 'disparity', got {self.depth1_kind!r}")

@@ -1,0 +1,84 @@
+"""Check a motion hypothesis against both images: render-and-compare with the object clouds.
+
+The initial object cloud, moved by the hypothesis, is projected into the goal view; each point that should be
+visible (its normal faces the camera) either lands on the goal object at the observed depth with the observed
+colour (agreement), lies in front of the observed surface or off the goal mask (contradiction), or lies
+behind it (occluded: no evidence). The same is done backwards, goal cloud into the initial view. The score is
+the mean agreement share of the two directions: it separates the right motion from symmetric or partial-view
+look-alikes that the feature consensus alone cannot tell apart.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from drivers.types import CameraIntrinsics
+from pipeline.grounding.umeyama import Similarity
+
+
+@dataclass(frozen=True)
+class View:
+    """One view's object: its cloud, normals and colours, and the images to compare against."""
+
+    cloud: np.ndarray  # (N, 3) camera frame [m]
+    normals: np.ndarray  # (N, 3) unit, facing the camera
+    chroma: np.ndarray  # (N, 3) colour of each point
+    depth: np.ndarray  # (H, W) metric, NaN invalid
+    mask: np.ndarray  # (H, W) bool
+    chroma_image: np.ndarray  # (H, W, 3)
+
+
+def chromaticity(rgb: np.ndarray) -> np.ndarray:
+    """Colour with brightness divided out (shading changes when an object turns)."""
+    f = rgb.astype(np.float32)
+    return f / (f.sum(axis=-1, keepdims=True) + 30.0)
+
+
+def make_view(
+    cloud: np.ndarray, chroma: np.ndarray, depth: np.ndarray, mask: np.ndarray, chroma_image: np.ndarray, voxel_m: float
+) -> View:
+    import open3d as o3d
+
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.astype(np.float64)))
+    pcd.colors = o3d.utility.Vector3dVector(np.clip(chroma, 0, 1).astype(np.float64))
+    pcd = pcd.voxel_down_sample(voxel_m)
+    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=4 * voxel_m, max_nn=30))
+    pcd.orient_normals_towards_camera_location(np.zeros(3))
+    return View(np.asarray(pcd.points), np.asarray(pcd.normals), np.asarray(pcd.colors), depth, mask, chroma_image)
+
+
+def _agreement(
+    src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: float, chroma_tol: float
+) -> tuple[float, int]:
+    X = T.apply(src.cloud)
+    n = src.normals @ T.R.T
+    keep = (np.einsum("ij,ij->i", n, X) < -0.1 * np.linalg.norm(X, axis=1)) & (X[:, 2] > 1e-3)
+    X, colour = X[keep], src.chroma[keep]
+    if len(X) == 0:
+        return 0.0, 0
+    uv = K.project(X)
+    u, v = np.round(uv[:, 0]).astype(int), np.round(uv[:, 1]).astype(int)
+    inside = (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
+    outside_count = int((~inside).sum())
+    u, v, z, colour = u[inside], v[inside], X[inside, 2], colour[inside]
+    d = dst.depth[v, u]
+    known = np.isfinite(d)
+    u, v, z, d, colour = u[known], v[known], z[known], d[known], colour[known]
+    occluded = z > d + tol_m
+    on_object = dst.mask[v, u] & (np.abs(z - d) <= tol_m)
+    same_colour = np.linalg.norm(dst.chroma_image[v, u] - colour, axis=1) < chroma_tol
+    agree = int((on_object & same_colour).sum())
+    evidence = int((~occluded).sum()) + outside_count
+    return agree / max(evidence, 1), evidence
+
+
+def view_consistency(
+    hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float, chroma_tol: float = 0.06
+) -> float:
+    """Mean agreement share (0..1) of initial -> goal and goal -> initial under the hypothesis."""
+    inverse = Similarity(1.0 / hypothesis.scale, hypothesis.R.T, -(hypothesis.R.T @ hypothesis.t) / hypothesis.scale)
+    fwd, _ = _agreement(initial, goal, hypothesis, K, tol_m, chroma_tol)
+    bwd, _ = _agreement(goal, initial, inverse, K, tol_m, chroma_tol)
+    return 0.5 * (fwd + bwd)

@@ -1,0 +1,91 @@
+"""Dense per-pixel features and their matching.
+
+A feature extractor turns an image (and, for geometric backends, its camera-frame point map) into one
+L2-normalised descriptor per requested pixel. Matching is cosine similarity, computed in chunks with torch
+so that thousands x tens of thousands of pixels fit in memory on the CPU or a GPU.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+
+@runtime_checkable
+class FeatureExtractor(Protocol):
+    name: str
+
+    def extract(self, rgb: np.ndarray, pixels: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """Descriptors (N, C) float32 with unit rows for pixels (N, 2) = (u, v) of rgb (H, W, 3) uint8.
+
+        points: optional (H, W, 3) camera-frame point map [m], NaN invalid, for backends that use geometry.
+        """
+        ...
+
+
+def make_feature_extractor(name: str, **options) -> FeatureExtractor:
+    """Backend by config name: "offline" (no weights) or "dinov2" (transformers; options: model_id, device)."""
+    if name == "offline":
+        from pipeline.perception.offline_features import OfflineFeatures
+
+        return OfflineFeatures(**options)
+    if name == "dinov2":
+        from pipeline.perception.dinov2 import Dinov2Features
+
+        return Dinov2Features(**options)
+    raise ValueError(f"unknown feature backend {name!r} (known: offline, dinov2)")
+
+
+def normalise_rows(x: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(x, axis=1, keepdims=True)
+    return (x / np.maximum(n, 1e-12)).astype(np.float32)
+
+
+def best_matches(
+    src: np.ndarray, dst: np.ndarray, *, chunk: int = 4096, device: str = "cpu"
+) -> tuple[np.ndarray, np.ndarray]:
+    """For each src row the index of the most cosine-similar dst row and that similarity.
+
+    Rows are assumed unit length (the extractors guarantee it). Work is split into chunks of src rows so
+    the similarity block is at most chunk x len(dst).
+    """
+    import torch
+
+    if src.ndim != 2 or dst.ndim != 2 or src.shape[1] != dst.shape[1]:
+        raise ValueError(f"best_matches: need (N, C) and (M, C) descriptors, got {src.shape} and {dst.shape}")
+    if len(dst) == 0:
+        raise ValueError("best_matches: no target descriptors")
+    d = torch.as_tensor(dst, dtype=torch.float32, device=device)
+    idx = np.empty(len(src), dtype=np.int64)
+    sim = np.empty(len(src), dtype=np.float32)
+    with torch.no_grad():
+        for start in range(0, len(src), chunk):
+            s = torch.as_tensor(src[start : start + chunk], dtype=torch.float32, device=device)
+            best = (s @ d.T).max(dim=1)
+            idx[start : start + chunk] = best.indices.cpu().numpy()
+            sim[start : start + chunk] = best.values.cpu().numpy()
+    return idx, sim
+
+
+def sample_bilinear(grid: np.ndarray, pixels: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
+    """Upsample a (h, w, C) patch-feature grid covering an image of image_size = (W, H) at pixels (N, 2).
+
+    Grid cell centres sit at ((i + 0.5) W / w - 0.5) in pixels, consistent with CameraIntrinsics.resized.
+    """
+    h, w, _ = grid.shape
+    W, H = image_size
+    gu = (pixels[:, 0] + 0.5) * w / W - 0.5
+    gv = (pixels[:, 1] + 0.5) * h / H - 0.5
+    gu = np.clip(gu, 0, w - 1)
+    gv = np.clip(gv, 0, h - 1)
+    u0, v0 = np.floor(gu).astype(int), np.floor(gv).astype(int)
+    u1, v1 = np.minimum(u0 + 1, w - 1), np.minimum(v0 + 1, h - 1)
+    a, b = (gu - u0)[:, None], (gv - v0)[:, None]
+    out = (
+        (1 - a) * (1 - b) * grid[v0, u0]
+        + a * (1 - b) * grid[v0, u1]
+        + (1 - a) * b * grid[v1, u0]
+        + a * b * grid[v1, u1]
+    )
+    return normalise_rows(out)
