@@ -214,6 +214,8 @@ class Runtime:
 
     def _stage(self, state: State, name: str, ctx: RunContext) -> None:
         self.machine.advance(state)
+        if state == State.EXECUTING:
+            ctx.extras["executing"] = True  # from here on, a run that ends badly must stop the motion
         result = self._call(getattr(self.stages, name), ctx, name)
         if state == State.PLANNING:
             ctx.plan = result
@@ -246,8 +248,7 @@ class Runtime:
         for an operator abort, at once otherwise) and the arm and gripper are stopped in every case."""
         if self.machine.state == State.DONE:
             return
-        moved = any(t.state == State.EXECUTING for t in self.machine.history[-12:])
-        if not moved and self.machine.state != State.ESTOPPED:
+        if not ctx.extras.get("executing") and self.machine.state != State.ESTOPPED:
             return
         graceful = self.supervisor.graceful_stop and self.machine.state == State.FAILED
         try:

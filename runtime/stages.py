@@ -233,6 +233,7 @@ class PipelineStages:
             achieved.R,
             achieved.t,
             object_centre(points),
+            frame0.T_base_camera[:3, :3],
             cfg.verify_position_tol_m,
             cfg.verify_rotation_tol_deg,
         )

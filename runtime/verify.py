@@ -1,23 +1,35 @@
 """Verification: capture again, measure how the target really moved, and compare it with the goal's motion.
 
 Both motions are measured the same way (the grounding stage's registration, here between the initial capture
-and the new one, both metric) and compared where it matters: the object's centre, moved by each. Rotation is
-judged only when the goal asked for one (>= ROTATION_INTENDED_DEG), since the yaw of a symmetric object or a
-placed block is otherwise free; it is always reported.
+and the new one, both metric) and compared where it matters: the object's centre, moved by each. The rotation
+difference is split, in the base frame, into tilt (how far the object's vertical axis is off) and twist (turn
+about the vertical). Tilt is always judged; twist only when the goal itself turns the object by at least
+TWIST_INTENDED_DEG, since the turn of a round object, or the incidental yaw of a placed block, is free.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from runtime.context import Verification
 
-ROTATION_INTENDED_DEG = 10.0
+TWIST_INTENDED_DEG = 10.0
 
 
 def rotation_deg(R: np.ndarray) -> float:
     return float(np.degrees(Rotation.from_matrix(R).magnitude()))
+
+
+def twist_tilt_deg(R_base: np.ndarray) -> tuple[float, float]:
+    """(turn about the base z axis, tilt of the z axis) of a rotation in the base frame, degrees."""
+    _, _, z, w = Rotation.from_matrix(R_base).as_quat()
+    twist = abs(math.degrees(2 * math.atan2(z, w)))
+    twist = 360.0 - twist if twist > 180.0 else twist
+    tilt = math.degrees(math.acos(float(np.clip(R_base[2, 2], -1.0, 1.0))))
+    return twist, tilt
 
 
 def object_centre(points_camera: np.ndarray) -> np.ndarray:
@@ -31,6 +43,7 @@ def compare(
     achieved_R: np.ndarray,
     achieved_t: np.ndarray,
     centre_camera: np.ndarray,
+    R_base_camera: np.ndarray,
     position_tol_m: float,
     rotation_tol_deg: float,
 ) -> Verification:
@@ -38,15 +51,18 @@ def compare(
     p_goal = goal_R @ centre_camera + goal_t
     p_achieved = achieved_R @ centre_camera + achieved_t
     position_error = float(np.linalg.norm(p_goal - p_achieved))
-    rotation_error = rotation_deg(goal_R.T @ achieved_R)
-    goal_rotation = rotation_deg(goal_R)
-    judged_rotation = goal_rotation >= ROTATION_INTENDED_DEG
+    to_base = lambda R: R_base_camera @ R @ R_base_camera.T  # noqa: E731
+    goal_twist, goal_tilt = twist_tilt_deg(to_base(goal_R))
+    twist_error, tilt_error = twist_tilt_deg(to_base(goal_R.T @ achieved_R))
+    judge_twist = goal_twist >= TWIST_INTENDED_DEG
     details = {
         "goal_translation_m": float(np.linalg.norm(p_goal - centre_camera)),
         "achieved_translation_m": float(np.linalg.norm(p_achieved - centre_camera)),
-        "goal_rotation_deg": goal_rotation,
-        "achieved_rotation_deg": rotation_deg(achieved_R),
-        "rotation_judged": judged_rotation,
+        "goal_twist_deg": goal_twist,
+        "goal_tilt_deg": goal_tilt,
+        "twist_error_deg": twist_error,
+        "tilt_error_deg": tilt_error,
+        "twist_judged": judge_twist,
         "position_tol_m": position_tol_m,
         "rotation_tol_deg": rotation_tol_deg,
     }
@@ -55,9 +71,13 @@ def compare(
         problems.append(
             f"object centre {position_error * 1000:.0f} mm from the goal (tolerance {position_tol_m * 1000:.0f})"
         )
-    if judged_rotation and rotation_error > rotation_tol_deg:
-        problems.append(f"object rotation {rotation_error:.1f} deg off the goal (tolerance {rotation_tol_deg:.0f})")
+    if tilt_error > rotation_tol_deg:
+        problems.append(f"object tilted {tilt_error:.1f} deg off the goal (tolerance {rotation_tol_deg:.0f})")
+    if judge_twist and twist_error > rotation_tol_deg:
+        problems.append(f"object turned {twist_error:.1f} deg off the goal (tolerance {rotation_tol_deg:.0f})")
+    rotation_error = rotation_deg(goal_R.T @ achieved_R)
     reason = "; ".join(problems) or (
-        f"goal reached: centre within {position_error * 1000:.0f} mm, rotation within {rotation_error:.1f} deg"
+        f"goal reached: centre within {position_error * 1000:.0f} mm, tilt within {tilt_error:.1f} deg"
+        + (f", turn within {twist_error:.1f} deg" if judge_twist else "")
     )
     return Verification(not problems, reason, position_error, rotation_error, details)

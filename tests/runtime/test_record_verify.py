@@ -20,25 +20,43 @@ def yaw(deg: float) -> np.ndarray:
     return Rotation.from_euler("z", deg, degrees=True).as_matrix()
 
 
+CAM = np.eye(3)  # camera frame == base frame in these cases: the base z axis is the camera's
+
+
 def test_reached_goal_passes():
     c = np.array([0.1, 0.0, 0.8])
-    v = compare(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.21, 0, 0]), c, 0.03, 15.0)
+    v = compare(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.21, 0, 0]), c, CAM, 0.03, 15.0)
     assert v.ok and v.position_error_m == pytest.approx(0.01)
 
 
 def test_position_off_by_more_than_the_tolerance_fails_with_the_numbers():
     c = np.zeros(3)
-    v = compare(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.15, 0, 0]), c, 0.03, 15.0)
+    v = compare(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.15, 0, 0]), c, CAM, 0.03, 15.0)
     assert not v.ok and "50 mm from the goal (tolerance 30)" in v.reason
 
 
-def test_rotation_is_judged_only_when_the_goal_rotates():
+def about_centre(R: np.ndarray, c: np.ndarray) -> np.ndarray:
+    return c - R @ c
+
+
+def test_turn_is_judged_only_when_the_goal_turns():
     c = np.array([0.0, 0.0, 0.8])
-    free_yaw = compare(np.eye(3), np.zeros(3), yaw(40), c - yaw(40) @ c, c, 0.03, 15.0)
-    assert free_yaw.ok and free_yaw.rotation_error_deg == pytest.approx(40, abs=1e-6)
-    goal_R = yaw(90)
-    wrong = compare(goal_R, c - goal_R @ c, yaw(60), c - yaw(60) @ c, c, 0.03, 15.0)
-    assert not wrong.ok and "rotation 30.0 deg off" in wrong.reason
+    free = compare(np.eye(3), np.zeros(3), yaw(40), about_centre(yaw(40), c), c, CAM, 0.03, 15.0)
+    assert free.ok and free.details["twist_error_deg"] == pytest.approx(40) and not free.details["twist_judged"]
+    wrong = compare(yaw(90), about_centre(yaw(90), c), yaw(60), about_centre(yaw(60), c), c, CAM, 0.03, 15.0)
+    assert not wrong.ok and "turned 30.0 deg off" in wrong.reason
+
+
+def test_tilt_is_always_judged_in_the_base_frame():
+    c = np.array([0.0, 0.0, 0.8])
+    tilt = Rotation.from_euler("x", 30, degrees=True).as_matrix()
+    v = compare(np.eye(3), np.zeros(3), tilt, about_centre(tilt, c), c, CAM, 0.03, 15.0)
+    assert not v.ok and "tilted 30.0 deg" in v.reason
+    # the same camera-frame rotation is a pure turn about the base vertical when camera x is the base vertical
+    R_base_camera = Rotation.from_euler("y", 90, degrees=True).as_matrix()
+    turn = Rotation.from_euler("x", 30, degrees=True).as_matrix()
+    v = compare(np.eye(3), np.zeros(3), turn, about_centre(turn, c), c, R_base_camera, 0.03, 15.0)
+    assert v.ok and v.details["tilt_error_deg"] == pytest.approx(0, abs=1e-6)
 
 
 def test_record_writes_summary_report_and_stage_seconds(tmp_path):
