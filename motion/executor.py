@@ -14,6 +14,7 @@ import contextlib
 import math
 import os
 import threading
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +38,8 @@ class ExecutionRefused(RuntimeError):
 class ExecutorConfig:
     rate_hz: float = 100.0
     max_step_rad: float = 0.04  # largest set-point change per tick
-    tracking_error_max_rad: float = 0.05  # |measured - last command| that stops the arm
+    tracking_error_max_rad: float = 0.05  # distance of the measured position from the recent commands that stops
+    tracking_lag_s: float = 0.03  # the measured state may trail the commands by this much (report and servo lag)
     max_state_age_s: float = 0.1  # no new joint state for this long stops the arm
     start_tolerance_rad: float = 0.02  # trajectory start vs measured position
     grasp_margin_m: float = 0.004  # a close ending this much wider than commanded holds an object
@@ -145,9 +147,11 @@ class Executor:
         return traj
 
     def _run(self, traj: JointTrajectory) -> None:
+        realtime = False
         if self.config.realtime_priority:
             with contextlib.suppress(OSError, AttributeError):  # needs CAP_SYS_NICE; a normal thread otherwise
                 os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self.config.realtime_priority))
+                realtime = True
         loop = _Loop(self, traj)
         try:
             loop.run()
@@ -160,7 +164,7 @@ class Executor:
             status, reason = "estopped", self._estop_reason
         if status in ("fault", "estopped"):
             self._stop_arm()
-        self._report = loop.report(status, reason or "")
+        self._report = loop.report(status, reason or "", realtime)
 
     def _stop_arm(self) -> None:
         with contextlib.suppress(Exception):  # best-effort here; the report carries the original fault
@@ -188,6 +192,7 @@ class _Loop:
         ex, cfg, clk = self.ex, self.ex.config, self.ex.clock
         state = ex.arm.read_state()
         q_last = state.q.copy()
+        recent = deque([q_last], maxlen=max(1, round(cfg.tracking_lag_s * cfg.rate_hz)) + 1)
         stamp, stamp_time = state.stamp_s, clk.now()
         t_next, late = clk.now(), False
         while True:
@@ -202,7 +207,7 @@ class _Loop:
                 raise _Stop("fault", f"stale joint state: none newer than {now - stamp_time:.3f} s")
             if state.fault_code:
                 raise _Stop("fault", f"controller error {state.fault_code}")
-            err = float(np.max(np.abs(state.q - q_last)))
+            err = min(float(np.max(np.abs(state.q - q))) for q in recent)  # nearest recent set-point
             self.max_err = max(self.max_err, err)
             if err > cfg.tracking_error_max_rad:
                 raise _Stop("fault", f"tracking error {err:.4f} rad > {cfg.tracking_error_max_rad} rad")
@@ -228,6 +233,7 @@ class _Loop:
             self.cmds.append(q)
             self.meas.append(state.q)
             self.max_step, q_last = max(self.max_step, step), q
+            recent.append(q)
             t_next += ex.period
             after = clk.now()
             late = after > t_next
@@ -251,7 +257,7 @@ class _Loop:
                 width = g.read_state().width_m
                 self.outcomes.append(GripperOutcome(ev, width, width > ev.width_m + self.ex.config.grasp_margin_m))
 
-    def report(self, status: Status, reason: str) -> ExecutionReport:
+    def report(self, status: Status, reason: str, realtime: bool) -> ExecutionReport:
         dof = len(self.traj.joint_names)
         return ExecutionReport(
             status=status,
@@ -260,6 +266,7 @@ class _Loop:
             late_ticks=self.late_ticks,
             jitter=Jitter.of(self.wakes, self.ex.period),
             max_tracking_error_rad=self.max_err,
+            realtime_priority=realtime,
             max_step_rad=self.max_step,
             gripper=tuple(self.outcomes),
             times_s=np.array(self.wakes),

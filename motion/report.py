@@ -42,7 +42,8 @@ class ExecutionReport:
     ticks: int
     late_ticks: int  # driver calls that overran into a later tick
     jitter: Jitter
-    max_tracking_error_rad: float
+    max_tracking_error_rad: float  # measured position vs the nearest set-point of the last tracking_lag_s
+    realtime_priority: bool  # the streaming thread ran with SCHED_FIFO (else jitter depends on the machine load)
     max_step_rad: float  # largest set-point change actually sent
     gripper: tuple[GripperOutcome, ...]
     times_s: np.ndarray = field(repr=False)  # clock time of each tick

@@ -171,6 +171,28 @@ def test_step_guard_stops_before_sending_a_big_step(sim, timer, limits, free_wor
         Executor(arm, ExecutorConfig(), limits, clock=SteppedClock(world)).start(_approved(timer, free_world, q0))
 
 
+class _BlockedArm(SimArm):
+    """An arm that reports fresh states but does not move (blocked by something, or a dead servo loop)."""
+
+    def read_state(self):
+        state = super().read_state()
+        if not hasattr(self, "q_stuck"):
+            self.q_stuck = state.q
+        return type(state)(state.names, self.q_stuck, state.qd * 0, state.stamp_s, state.fault_code)
+
+
+def test_tracking_error_stops_an_arm_that_does_not_follow(stepped_profile, timer, limits, free_world):
+    world = SimWorld(stepped_profile.sim, stepped_profile.camera)
+    arm = _BlockedArm(world)
+    arm.connect()
+    q0 = arm.read_state().q
+    report = Executor(arm, ExecutorConfig(), limits, clock=SteppedClock(world)).execute(
+        _approved(timer, free_world, q0)
+    )
+    assert report.status == "fault" and "tracking error" in report.reason
+    assert 0.05 < report.max_tracking_error_rad < 0.05 + 0.04  # caught on the first tick beyond the bound
+
+
 class _FrozenStateArm(SimArm):
     """An arm whose state reports stop updating after a while (a dead report stream)."""
 
