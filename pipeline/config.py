@@ -11,6 +11,7 @@ from typing import Literal
 from pydantic import Field
 
 from drivers.config import StrictModel
+from pipeline.grounding.types import GroundingConfig
 
 
 class ProviderConfig(StrictModel):
@@ -51,6 +52,12 @@ class DepthAnythingConfig(StrictModel):
     device: str = "cpu"
 
 
+class Dinov2Config(StrictModel):
+    model: str = Field(default="facebook/dinov2-small", description="hub id or local folder")
+    device: str = "cpu"
+    short_side_px: int = Field(default=448, ge=14, description="image short side fed to the model")
+
+
 class ChecksConfig(StrictModel):
     """Cheap geometric checks run on every candidate before the reflector is asked."""
 
@@ -73,7 +80,7 @@ class PipelineConfig(StrictModel):
     vlm: Literal["offline", "gemini", "openai"] = "offline"
     segmenter: Literal["offline", "grounded_sam"] = "offline"
     depth: Literal["offline", "depth_anything"] = "offline"
-    features: Literal["offline"] = "offline"
+    features: Literal["offline", "dinov2"] = "offline"
     reflection_iterations: int = Field(default=3, ge=1, le=10)
     overlay_alpha: float = Field(default=0.5, gt=0, le=1, description="goal object opacity in the synthesis overlay")
     allow_unvalidated_goal: bool = Field(
@@ -83,4 +90,6 @@ class PipelineConfig(StrictModel):
     openai: OpenAIConfig = OpenAIConfig()
     grounded_sam: GroundedSamConfig = GroundedSamConfig()
     depth_anything: DepthAnythingConfig = DepthAnythingConfig()
+    dinov2: Dinov2Config = Dinov2Config()
+    grounding: GroundingConfig = GroundingConfig()
     checks: ChecksConfig = ChecksConfig()

@@ -152,6 +152,20 @@ def calibrate_hand_eye(
 
 
 @app.command()
+def ground(
+    config: ConfigOption = DEFAULT_CONFIG,
+    scene_file: Annotated[Path, typer.Option("--scene-file", help="PAIR.npz (keys: see DESIGN.md)")] = ...,
+    out: Annotated[Path, typer.Option(help="RESULT.json")] = ...,
+) -> None:
+    """Spatial grounding alone: the object's motion x_goal = R x_init + t (camera frame) from PAIR.npz.
+
+    Exit 0 grounded, 1 refused (RESULT.json says why), 2 unusable input."""
+    from runtime.ground_command import ground_command
+
+    raise typer.Exit(ground_command(_load(config), scene_file, out))
+
+
+@app.command()
 def run(
     config: ConfigOption = DEFAULT_CONFIG,
     instruction: Annotated[str | None, typer.Option(help="e.g. 'put the red block on the white plate'")] = None,

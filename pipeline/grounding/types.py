@@ -121,8 +121,8 @@ class GroundingInput:
             a = getattr(self, key)
             if not np.issubdtype(a.dtype, np.floating) or a.shape != (h, w):
                 raise GroundingError(f"{key} must be float ({h}, {w}), got {a.dtype} {a.shape}")
-            if not np.isfinite(a).any():
-                raise GroundingError(f"{key} has no finite value")
+            if not (np.isfinite(a) & (a > 0 if key == "depth0" else True)).any():
+                raise GroundingError(f"{key} has no valid value (all NaN{' or 0' if key == 'depth0' else ''})")
         for key in ("mask0", "mask1"):
             a = getattr(self, key)
             if a.dtype != np.bool_ or a.shape != (h, w):

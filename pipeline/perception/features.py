@@ -25,7 +25,8 @@ class FeatureExtractor(Protocol):
 
 
 def make_feature_extractor(name: str, **options) -> FeatureExtractor:
-    """Backend by config name: "offline" (no weights) or "dinov2" (transformers; options: model_id, device)."""
+    """Backend by config name: "offline" (no weights) or "dinov2" (transformers; options: model_id, device,
+    short_side_px)."""
     if name == "offline":
         from pipeline.perception.offline_features import OfflineFeatures
 
@@ -35,6 +36,14 @@ def make_feature_extractor(name: str, **options) -> FeatureExtractor:
 
         return Dinov2Features(**options)
     raise ValueError(f"unknown feature backend {name!r} (known: offline, dinov2)")
+
+
+def features_from_config(pipeline) -> FeatureExtractor:
+    """The backend a PipelineConfig names, with its settings."""
+    if pipeline.features == "dinov2":
+        c = pipeline.dinov2
+        return make_feature_extractor("dinov2", model_id=c.model, device=c.device, short_side_px=c.short_side_px)
+    return make_feature_extractor(pipeline.features)
 
 
 def normalise_rows(x: np.ndarray) -> np.ndarray:
