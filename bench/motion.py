@@ -223,6 +223,7 @@ def jitter_250hz(robot: RobotModel, seconds: float) -> dict:
         "jitter_p99_s_250hz": report.jitter.p99_s,
         "jitter_max_s_250hz": report.jitter.max_s,
         "late_ticks_250hz": report.late_ticks,
+        "jitter_realtime_priority": report.realtime_priority,
         "tracking_error_max_rad_250hz": report.max_tracking_error_rad,
     }
 
