@@ -92,8 +92,8 @@ class PipelineStages:
     # -- grounding ----------------------------------------------------------------------------------------
     def _features_backend(self, ctx: RunContext):
         if self._features is None:
-            make = require("grounding", "pipeline.perception.features", "make_feature_extractor")
-            self._features = make(ctx.profile.pipeline.features)
+            features_from_config = require("grounding", "pipeline.perception.features", "features_from_config")
+            self._features = features_from_config(ctx.profile.pipeline)
         return self._features
 
     def ground(self, ctx: RunContext) -> None:
@@ -109,7 +109,9 @@ class PipelineStages:
             goal.mask_goal,
             frame.intrinsics,
         )
-        motion = ground(inp, self._features_backend(ctx), T_base_camera=frame.T_base_camera)
+        motion = ground(
+            inp, self._features_backend(ctx), ctx.profile.pipeline.grounding, T_base_camera=frame.T_base_camera
+        )
         ctx.record.note(object_motion=_motion_json(motion))
         if not motion.ok:
             raise StageError(f"grounding refused: {motion.reason}")
@@ -220,7 +222,9 @@ class PipelineStages:
         inp = GroundingInput(
             frame0.rgb, frame0.depth, mask0, frame1.rgb, frame1.depth, "depth", mask1, frame0.intrinsics
         )
-        achieved = ground(inp, self._features_backend(ctx), T_base_camera=frame0.T_base_camera)
+        achieved = ground(
+            inp, self._features_backend(ctx), ctx.profile.pipeline.grounding, T_base_camera=frame0.T_base_camera
+        )
         ctx.record.note(achieved_motion=_motion_json(achieved))
         if not achieved.ok:
             return Verification(False, f"could not measure the achieved motion: {achieved.reason}")
