@@ -3,8 +3,9 @@
 Both motions are measured the same way (the grounding stage's registration, here between the initial capture
 and the new one, both metric) and compared where it matters: the object's centre, moved by each. The rotation
 difference is split, in the base frame, into tilt (how far the object's vertical axis is off) and twist (turn
-about the vertical). Tilt is always judged; twist only when the goal itself turns the object by at least
-TWIST_INTENDED_DEG, since the turn of a round object, or the incidental yaw of a placed block, is free.
+about the vertical), and each is judged only when the goal itself asks for that kind of rotation (at least
+INTENDED_DEG): the registration of a symmetric object (a cube, a cylinder) is free to pick any of its symmetric
+poses, so an unasked rotation is reported, never judged.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from runtime.context import Verification
 
-TWIST_INTENDED_DEG = 10.0
+INTENDED_DEG = 10.0
 
 
 def rotation_deg(R: np.ndarray) -> float:
@@ -54,7 +55,7 @@ def compare(
     to_base = lambda R: R_base_camera @ R @ R_base_camera.T  # noqa: E731
     goal_twist, goal_tilt = twist_tilt_deg(to_base(goal_R))
     twist_error, tilt_error = twist_tilt_deg(to_base(goal_R.T @ achieved_R))
-    judge_twist = goal_twist >= TWIST_INTENDED_DEG
+    judge_twist, judge_tilt = goal_twist >= INTENDED_DEG, goal_tilt >= INTENDED_DEG
     details = {
         "goal_translation_m": float(np.linalg.norm(p_goal - centre_camera)),
         "achieved_translation_m": float(np.linalg.norm(p_achieved - centre_camera)),
@@ -63,6 +64,7 @@ def compare(
         "twist_error_deg": twist_error,
         "tilt_error_deg": tilt_error,
         "twist_judged": judge_twist,
+        "tilt_judged": judge_tilt,
         "position_tol_m": position_tol_m,
         "rotation_tol_deg": rotation_tol_deg,
     }
@@ -71,13 +73,14 @@ def compare(
         problems.append(
             f"object centre {position_error * 1000:.0f} mm from the goal (tolerance {position_tol_m * 1000:.0f})"
         )
-    if tilt_error > rotation_tol_deg:
+    if judge_tilt and tilt_error > rotation_tol_deg:
         problems.append(f"object tilted {tilt_error:.1f} deg off the goal (tolerance {rotation_tol_deg:.0f})")
     if judge_twist and twist_error > rotation_tol_deg:
         problems.append(f"object turned {twist_error:.1f} deg off the goal (tolerance {rotation_tol_deg:.0f})")
     rotation_error = rotation_deg(goal_R.T @ achieved_R)
     reason = "; ".join(problems) or (
-        f"goal reached: centre within {position_error * 1000:.0f} mm, tilt within {tilt_error:.1f} deg"
+        f"goal reached: centre within {position_error * 1000:.0f} mm"
+        + (f", tilt within {tilt_error:.1f} deg" if judge_tilt else "")
         + (f", turn within {twist_error:.1f} deg" if judge_twist else "")
     )
     return Verification(not problems, reason, position_error, rotation_error, details)

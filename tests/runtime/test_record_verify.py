@@ -47,16 +47,18 @@ def test_turn_is_judged_only_when_the_goal_turns():
     assert not wrong.ok and "turned 30.0 deg off" in wrong.reason
 
 
-def test_tilt_is_always_judged_in_the_base_frame():
+def test_tilt_is_judged_when_the_goal_tilts_in_the_base_frame():
     c = np.array([0.0, 0.0, 0.8])
-    tilt = Rotation.from_euler("x", 30, degrees=True).as_matrix()
-    v = compare(np.eye(3), np.zeros(3), tilt, about_centre(tilt, c), c, CAM, 0.03, 15.0)
+    tilt = Rotation.from_euler("x", 90, degrees=True).as_matrix()
+    half = Rotation.from_euler("x", 60, degrees=True).as_matrix()
+    v = compare(tilt, about_centre(tilt, c), half, about_centre(half, c), c, CAM, 0.03, 15.0)
     assert not v.ok and "tilted 30.0 deg" in v.reason
+    unasked = compare(np.eye(3), np.zeros(3), tilt, about_centre(tilt, c), c, CAM, 0.03, 15.0)
+    assert unasked.ok and unasked.details["tilt_error_deg"] == pytest.approx(90)  # reported, not judged
     # the same camera-frame rotation is a pure turn about the base vertical when camera x is the base vertical
     R_base_camera = Rotation.from_euler("y", 90, degrees=True).as_matrix()
-    turn = Rotation.from_euler("x", 30, degrees=True).as_matrix()
-    v = compare(np.eye(3), np.zeros(3), turn, about_centre(turn, c), c, R_base_camera, 0.03, 15.0)
-    assert v.ok and v.details["tilt_error_deg"] == pytest.approx(0, abs=1e-6)
+    v = compare(tilt, about_centre(tilt, c), half, about_centre(half, c), c, R_base_camera, 0.03, 15.0)
+    assert not v.ok and "turned 30.0 deg" in v.reason and v.details["tilt_error_deg"] == pytest.approx(0, abs=1e-6)
 
 
 def test_record_writes_summary_report_and_stage_seconds(tmp_path):
