@@ -28,6 +28,14 @@ from pipeline.reasoning.providers import (
 from pipeline.reasoning.types import EditRequest, EditResult, Enhancement, ReflectionRequest, Verdict
 
 REFUSAL_REASONS = ("SAFETY", "PROHIBITED", "BLOCKLIST", "SPII", "RECITATION")
+ASPECT_RATIOS = ("1:1", "2:3", "3:2", "3:4", "4:3", "4:5", "5:4", "9:16", "16:9", "21:9")
+
+
+def nearest_aspect_ratio(width: int, height: int) -> str:
+    """The supported output aspect ratio closest to the input's: the editor then has less reason to reframe."""
+    return min(
+        ASPECT_RATIOS, key=lambda r: abs(np.log(width / height) - np.log(int(r.split(":")[0]) / int(r.split(":")[1])))
+    )
 
 
 class _GeminiClient:
@@ -93,7 +101,11 @@ class GeminiEditor(ImageEditor):
 
     def edit(self, request: EditRequest) -> EditResult:
         what = f"gemini edit ({self.config.image_model})"
-        cfg = self.api.types.GenerateContentConfig(response_modalities=["IMAGE", "TEXT"])
+        types = self.api.types
+        aspect = nearest_aspect_ratio(request.rgb.shape[1], request.rgb.shape[0])
+        cfg = types.GenerateContentConfig(
+            response_modalities=["IMAGE", "TEXT"], image_config=types.ImageConfig(aspect_ratio=aspect)
+        )
         contents = [request.prompt, self.api.image_part(request.rgb)]
         response = self.api.generate(self.config.image_model, contents, cfg, what)
         parts, raw = _parts(response, what)

@@ -9,7 +9,7 @@ import pytest
 from fake_http import Reply, gemini_error, gemini_image, gemini_text, json_reply
 
 from pipeline.config import GeminiConfig
-from pipeline.reasoning.gemini import GeminiEditor, GeminiVLM
+from pipeline.reasoning.gemini import GeminiEditor, GeminiVLM, nearest_aspect_ratio
 from pipeline.reasoning.providers import MissingApiKeyError, ProviderError
 from pipeline.reasoning.types import EditRequest, ReflectionRequest
 
@@ -34,6 +34,11 @@ def test_edit_success_sends_prompt_and_png_and_decodes_the_image(fake_server, co
     inline = parts[1].get("inlineData") or parts[1]["inline_data"]
     assert (inline.get("mimeType") or inline.get("mime_type")) == "image/png"
     assert "IMAGE" in sent["generationConfig"]["responseModalities"]
+    assert sent["generationConfig"]["imageConfig"]["aspectRatio"] == "4:3"  # the 64x48 input's
+
+
+def test_aspect_ratio_request_follows_the_camera():
+    assert nearest_aspect_ratio(1280, 720) == "16:9" and nearest_aspect_ratio(640, 640) == "1:1"
 
 
 def test_429_then_success_is_retried(fake_server, config, scene_rgb):
