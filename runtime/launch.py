@@ -14,6 +14,7 @@ from runtime.devices import open_devices
 from runtime.messages import PlanSummary
 from runtime.progress import ProgressView
 from runtime.runner import Runtime
+from runtime.serve import serve
 from runtime.stages import PipelineStages
 from runtime.states import State
 
@@ -59,7 +60,7 @@ def _serve(rt: Runtime, console: Console) -> int:
     stop = threading.Event()
     console.print("serving instructions from the console; Ctrl-C stops the arm and quits")
     try:
-        rt.serve(stop, lambda r: console.print(f"{r.status.value}: {r.reason}  ({r.run_dir})"))
+        serve(rt, stop, lambda r: console.print(f"{r.status.value}: {r.reason}  ({r.run_dir})"))
     except KeyboardInterrupt:
         rt.supervisor.estop("runtime interrupted (Ctrl-C)")
     return 0

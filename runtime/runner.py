@@ -10,7 +10,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-import time
 import traceback
 import uuid
 from collections.abc import Callable
@@ -45,7 +44,6 @@ PIPELINE = (
 )
 
 
-PREVIEW_PERIOD_S = 2.0  # camera frames for the console between runs
 STAGE_GRACE_S = 3.0  # on close, how long a still-running stage may take to return
 
 
@@ -259,7 +257,8 @@ class Runtime:
         self.arm_halted = True
 
     # -- serving the console ------------------------------------------------------------------------------
-    def _preview(self) -> None:
+
+    def preview(self) -> None:
         """Between runs, the latest camera frame for the console (on the stage thread, which owns the camera)."""
         if self.machine.state not in (State.IDLE, *TERMINAL) or (self._pending and not self._pending.done()):
             return
@@ -269,29 +268,3 @@ class Runtime:
             publish_image(self.bus, "capture", to_bgr(frame.rgb))
 
         self._pending = self._stage_thread.submit(grab)
-
-    def serve(self, stop: threading.Event, on_result: Callable[[RunResult], None] | None = None) -> None:
-        """Run instructions and resets sent on `command` until `stop` is set (console-driven operation)."""
-        next_preview = 0.0
-        while not stop.is_set():
-            if not self.supervisor.command_ready.wait(0.05):
-                if time.monotonic() >= next_preview:
-                    next_preview = time.monotonic() + PREVIEW_PERIOD_S
-                    self._preview()
-                continue
-            cmd = self.supervisor.next_command()
-            if cmd is None:
-                continue
-            try:
-                if cmd.action == "reset":
-                    self.reset(cmd.source or "console")
-                elif cmd.action == "run":
-                    if self.machine.state == State.ESTOPPED:
-                        self.status.event("run refused: ESTOPPED, press Reset first", "warning")
-                        continue
-                    result = self.run(cmd.instruction)
-                    if on_result is not None:
-                        on_result(result)
-            except TransitionError as e:
-                self.status.event(f"{cmd.action} refused: {e}", "warning")
-            time.sleep(0)

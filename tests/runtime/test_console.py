@@ -16,6 +16,7 @@ from runtime.config import load_profile
 from runtime.console.server import ConsoleServer
 from runtime.devices import open_devices
 from runtime.runner import Runtime
+from runtime.serve import serve
 from runtime.states import State
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
@@ -53,7 +54,7 @@ def rig(sim_config_path):
 
 
 def serve_in_thread(rt, stop):
-    th = threading.Thread(target=rt.serve, args=(stop,), daemon=True)
+    th = threading.Thread(target=serve, args=(rt, stop), daemon=True)
     th.start()
     return th
 
