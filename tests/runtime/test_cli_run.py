@@ -1,0 +1,39 @@
+"""`goalvla run` contracts: argument errors exit 2; a run writes DIR/summary.json and its exit code follows the
+status (0 only for a verified DONE)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from runtime_helpers import free_port
+from typer.testing import CliRunner
+
+from runtime.cli import app
+from runtime.launch import EXIT_CODES
+from runtime.states import State
+
+runner = CliRunner()
+
+
+def test_instruction_or_serve_is_required(sim_config_path):
+    result = runner.invoke(app, ["run", "--config", str(sim_config_path)])
+    assert result.exit_code == 2 and "--instruction" in result.output
+
+
+def test_scene_on_a_hardware_profile_is_refused(sim_config_path):
+    lab = sim_config_path.parent / "lab.yaml"
+    result = runner.invoke(app, ["run", "--config", str(lab), "--instruction", "x", "--scene", "tabletop"])
+    assert result.exit_code == 2 and "only apply to sim profiles" in result.output
+
+
+@pytest.mark.slow
+def test_a_run_writes_its_record_and_exits_by_status(sim_config_path, tmp_path):
+    profile = tmp_path / "p.yaml"
+    profile.write_text(f"include: {sim_config_path}\nruntime: {{zenoh: {{endpoint: tcp/127.0.0.1:{free_port()}}}}}\n")
+    args = ["run", "--config", str(profile), "--instruction", "put the red block on the white plate", "--yes"]
+    result = runner.invoke(app, [*args, "--seed", "4", "--record", str(tmp_path / "run")])
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["seed"] == 4 and summary["instruction"] == "put the red block on the white plate"
+    assert result.exit_code == EXIT_CODES[State(summary["status"])], (result.output, summary["reason"])
+    assert (tmp_path / "run" / "report.html").exists() and (tmp_path / "run" / "capture.png").exists()
