@@ -242,9 +242,14 @@ class _Loop:
                 t_next += math.ceil((after - t_next) / ex.period) * ex.period
 
     def _gripper(self, tau: float) -> None:
-        """Fire events whose time has come; judge a close once its hold is over."""
+        """Fire events whose time has come (none once an abort is stopping the arm); judge a close once its hold
+        is over."""
         g = self.ex.gripper
-        while len(self.fired) < len(self.events) and tau >= self.events[len(self.fired)].time_s - 1e-9:
+        while (
+            not self.clock.stopping
+            and len(self.fired) < len(self.events)
+            and tau >= self.events[len(self.fired)].time_s - 1e-9
+        ):
             ev = self.events[len(self.fired)]
             if ev.kind in ("open", "close"):
                 g.command(ev.width_m)
