@@ -17,6 +17,7 @@ from runtime.console.server import ConsoleServer
 from runtime.devices import open_devices
 from runtime.runner import Runtime
 from runtime.serve import serve
+from runtime.sim_oracle import GroundTruthGraspStages
 from runtime.states import State
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
@@ -32,15 +33,13 @@ playwright = pytest.importorskip("playwright.sync_api", reason="pip install play
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(shutil.which("chromium") is None, reason="apt-get install chromium")]
 
 
-@pytest.fixture
-def rig(sim_config_path):
+def make_rig(sim_config_path, stages):
     profile = load_profile(
         sim_config_path,
         {"runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": "console_test"}},
     )
     stop = threading.Event()
     with open_devices(profile) as devices:
-        stages = ScriptedStages()
         rt = Runtime(profile, devices, stages, confirm="console")
         server = serve_in_thread(rt, stop)
         console = ConsoleServer(profile.runtime, "127.0.0.1", free_port()).start()
@@ -51,6 +50,16 @@ def rig(sim_config_path):
             server.join(5)
             console.close()
             rt.close()
+
+
+@pytest.fixture
+def rig(sim_config_path):
+    yield from make_rig(sim_config_path, ScriptedStages())
+
+
+@pytest.fixture
+def real_rig(sim_config_path):
+    yield from make_rig(sim_config_path, GroundTruthGraspStages())
 
 
 def serve_in_thread(rt, stop):
@@ -110,3 +119,23 @@ def test_posts_without_the_console_header_are_refused(rig):
         urllib.request.urlopen(req, timeout=5)
     assert err.value.code == 403
     assert rt.machine.state == State.IDLE
+
+
+def test_a_real_pipeline_run_shows_every_picture(real_rig, page):
+    """Reasoning, grounding, planning, execution and verification for real (contact from runtime.sim_oracle)."""
+    pytest.importorskip("pipeline.grounding.ground", reason="the grounding stage is not part of this build")
+    console = real_rig[3]
+    page.goto(console.url)
+    page.wait_for_selector("#conn.ok")
+    page.fill("#instruction", "put the red block on the white plate")
+    page.click("#run-btn")
+    page.wait_for_selector("#confirm-btn:not([disabled])", timeout=60000)
+    assert "grasp" in page.locator("#plan-mode").inner_text()
+    assert "gate padding" in page.locator("#plan-clearance").inner_text()
+    page.click("#confirm-btn")
+    page.wait_for_function(
+        "['DONE', 'FAILED', 'ESTOPPED'].includes(document.getElementById('state').textContent)", timeout=60000
+    )
+    assert page.locator("#state").inner_text() == "DONE", page.locator("#reason").inner_text()
+    for name in ("capture", "goal", "overlay", "masks", "plan", "after"):
+        page.wait_for_function(f"document.getElementById('img-{name}').naturalWidth > 0")
