@@ -25,6 +25,8 @@ from safety.trajectory import GripperEvent, JointTrajectory
 
 # A blended segment too fast for the TCP cap is slowed (with its crossings) unless that takes a factor below this.
 MIN_BLEND_SLOWDOWN = 0.5
+# Re-timing rounds per waypoint before blending gives up on a path (each round slows or drops a blend).
+MAX_BLEND_ROUNDS = 8
 # A segment whose sampled TCP speed exceeds TCP_SPEED_ACCEPT of the limit is re-timed to reach TCP_SPEED_TARGET.
 TCP_SPEED_ACCEPT, TCP_SPEED_TARGET = 0.99, 0.97
 # A check returns the times [s] of the samples it rejects (empty: accepted).
@@ -131,7 +133,7 @@ class TrajectoryTimer:
             return stop
         velocities = [crossing_velocities(p, r, self.limits) for p, r in zip(paths, rest, strict=True)]
         slow = [np.ones(len(p) - 1) for p in paths]  # extra slow-down of blended segments for the TCP cap
-        while True:
+        for _ in range(MAX_BLEND_ROUNDS * sum(len(p) for p in paths)):
             try:
                 pieces = self._pieces(steps, velocities, rest, slow)
             except _Unblendable as e:  # slow this segment and its crossings down, or make it stop at its ends
@@ -151,6 +153,7 @@ class TrajectoryTimer:
             if not any(np.any(v) for v in velocities):
                 return stop
             drop_blends_at(bad_times, starts, _owners(steps), velocities, self.dt)
+        return stop  # no accepted blend within the round budget
 
     def _checked(self, steps: Sequence[Step]) -> list[Step]:
         out: list[Step] = []
