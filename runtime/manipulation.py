@@ -5,8 +5,8 @@ The safety gate checks a trajectory against one collision world, and the world c
 is approved against its own world:
   grasp:  1. reach: plan to the pre-grasp pose, straight in to the grasp, close, straight up (no held object)
           2. carry: plan to above the place pose with the object attached to the TCP, straight down, open
-          3. leave: straight back up with the gripper open
-  push:   1. push:  plan to the pre-contact pose, close, straight in, push along the motion, straight back
+          3. leave: straight back up with the gripper open, then home (out of the camera's view)
+  push:   1. push:  plan to the pre-contact pose, close, straight in, push along the motion, straight back, home
 The obstacle world is the camera's point cloud (robot, table and target removed) plus the table and the
 profile's workspace and keep-out boxes. The work itself is motion's (IK goals, OMPL, Cartesian lines, Ruckig)
 and safety's (the gate); this module only chains it.
@@ -82,6 +82,8 @@ class Chain:
             self.limits, self.dt, self.robot.joint_names, self.robot.tcp_positions, profile.safety.max_tcp_speed_m_s
         )
         self.q0 = dev.arm.read_state().q
+        home = profile.robot.home_q_rad
+        self.home = np.asarray(home if home is not None else self.robot.spec.home_q, dtype=np.float64)
         points = cloud_from_frame(
             ctx.frame0, self.robot, self.q0, exclude_mask=ctx.goal.mask_init, crop=profile.safety.workspace
         )
@@ -148,8 +150,10 @@ def plan_grasp(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     carry = chain.approved([to_above, down, GripperAction("open", OPEN_S, open_w)], carry_world, lift[-1], "carry")
 
     leave_world = chain.world(open_w)
-    up = chain.line(Planner(leave_world, chain.limits), down[-1], lifted(T_place, LIFT_M), "retreat")
-    leave = chain.approved([up], leave_world, down[-1], "retreat")
+    leave_planner = Planner(leave_world, chain.limits)
+    up = chain.line(leave_planner, down[-1], lifted(T_place, LIFT_M), "retreat")
+    home = chain.free(leave_planner, up[-1], chain.home, "path home")
+    leave = chain.approved([up, home], leave_world, down[-1], "retreat")
     waypoints = {"pre-grasp": poses.T_pre, "grasp": poses.T_contact, "place": T_place}
     return ManipulationPlan((reach, carry, leave), ("reach", "carry", "leave"), poses, waypoints)
 
@@ -163,7 +167,8 @@ def plan_push(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     approach = chain.line(planner, q_pre, poses.T_contact, "approach to the push")
     push = chain.line(planner, approach[-1], poses.T_goal, "push")
     back = chain.line(planner, push[-1], lifted(poses.T_goal, LIFT_M), "retreat after the push")
-    steps = [to_pre, GripperAction("close", CLOSE_S, g.min_width_m), approach, push, back]
+    home = chain.free(planner, back[-1], chain.home, "path home")
+    steps = [to_pre, GripperAction("close", CLOSE_S, g.min_width_m), approach, push, back, home]
     phase = chain.approved(steps, world, chain.q0, "push")
     waypoints = {"pre-push": poses.T_pre, "contact": poses.T_contact, "push end": poses.T_goal}
     return ManipulationPlan((phase,), ("push",), poses, waypoints)
