@@ -8,15 +8,19 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
-import numpy as np
-from rich.console import Console
-from rich.table import Table
+# bench/safety.py is named like the safety package: keep this folder off the import path
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
-from drivers.sim import SimCamera, SimWorld
-from runtime.config import load_profile
+import numpy as np  # noqa: E402
+from rich.console import Console  # noqa: E402
+from rich.table import Table  # noqa: E402
+
+from drivers.sim import SimCamera, SimWorld  # noqa: E402
+from runtime.config import load_profile  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "sim.yaml"
 TARGETS = {"rgbd_ms_640x360": 150.0, "physics_realtime_factor": 5.0}
