@@ -1,0 +1,135 @@
+"""Contact candidates on the object's point cloud (base frame, table top at z = 0).
+
+Grasps: the fingers close along an axis y, the gripper approaches along z (straight down, or from the side
+toward the object from the robot). The object's width between the pads is measured on the cloud, and the
+antipodal quality is how well the surface normals at the two contact sides line up with y. One camera sees
+only part of an object, so a side with no observed surface counts as half quality instead of failing.
+Pushes: closed fingers placed behind the object, opposite the direction it must move.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.contact.types import ContactConfig, ContactMode
+
+PAD_HALF_WIDTH_M = 0.016  # half the finger pad's width (along the TCP x axis)
+PAD_LENGTH_M = 0.06  # how far the pads reach from the TCP back toward the wrist
+
+
+@dataclass(frozen=True)
+class Candidate:
+    mode: ContactMode
+    T_contact: np.ndarray
+    object_width_m: float
+    antipodal: float  # 0..1
+    approach: float  # 1 straight down .. 0 horizontal
+    centred: float  # 1 at the centroid .. 0 one object size away
+
+
+def frame(y: np.ndarray, z: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """Right-handed TCP pose with closing axis y and approach axis z (y is made orthogonal to z)."""
+    z = z / np.linalg.norm(z)
+    y = y - (y @ z) * z
+    y /= np.linalg.norm(y)
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([np.cross(y, z), y, z])
+    T[:3, 3] = origin
+    return T
+
+
+def estimate_normals(points: np.ndarray, radius_m: float, viewpoint: np.ndarray) -> np.ndarray:
+    import open3d as o3d
+
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points.astype(np.float64)))
+    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=radius_m, max_nn=30))
+    pcd.orient_normals_towards_camera_location(viewpoint)
+    return np.asarray(pcd.normals)
+
+
+def _pinch(points: np.ndarray, normals: np.ndarray, T: np.ndarray) -> tuple[float, float, float] | None:
+    """Width [m] of the object between the pads of a gripper at T, the antipodal quality, and the shift along
+    the closing axis that centres the fingers on it; None if nothing lies between the pads."""
+    local = (points - T[:3, 3]) @ T[:3, :3]
+    slab = (np.abs(local[:, 0]) < PAD_HALF_WIDTH_M) & (local[:, 2] > -PAD_LENGTH_M) & (local[:, 2] < 0.003)
+    if slab.sum() < 5:
+        return None
+    y = local[slab, 1]
+    lo, hi = y.min(), y.max()
+    n_y = normals[slab] @ T[:3, 1]
+    quality = []
+    for side, sign in ((y < lo + 0.004, -1.0), (y > hi - 0.004, 1.0)):
+        facing = sign * n_y[side]
+        quality.append(float(np.clip(np.median(facing), 0, 1)) if facing.size >= 3 else 0.5)
+    return float(hi - lo), float(np.mean(quality)), float(0.5 * (hi + lo))
+
+
+def grasp_candidates(
+    points: np.ndarray, normals: np.ndarray, cfg: ContactConfig, max_width_m: float
+) -> tuple[list[Candidate], dict[str, int]]:
+    rejected = {"too wide for the gripper": 0, "nothing between the fingers": 0}
+    centroid = points.mean(axis=0)
+    size = float(np.linalg.norm(np.percentile(points, 95, axis=0) - np.percentile(points, 5, axis=0)))
+    top = float(np.percentile(points[:, 2], 98))
+    down = np.array([0.0, 0.0, -1.0])
+    poses = []
+    # from above: closing axis swept in the horizontal plane, centred on the top surface (which one view sees
+    # whole, unlike the sides) and, for elongated objects, also along the long axis
+    upper = points[points[:, 2] > top - 0.01]
+    centre_xy = upper[:, :2].mean(axis=0) if len(upper) >= 10 else centroid[:2]
+    xy = points[:, :2] - centre_xy
+    axes = np.linalg.svd(xy - xy.mean(axis=0), full_matrices=False)[2]
+    spread = np.percentile(np.abs(xy @ axes.T), 90, axis=0)
+    offsets = (0.0, -0.5 * spread[0], 0.5 * spread[0]) if spread[0] > 1.6 * spread[1] else (0.0,)
+    height = max(top - min(cfg.grasp_depth_m, 0.75 * top), cfg.min_tcp_height_m)
+    for offset in offsets:
+        origin = np.array([*(centre_xy + offset * axes[0]), height])
+        for yaw in np.radians(np.arange(0.0, 180.0, cfg.yaw_step_deg)):
+            poses.append(frame(np.array([np.cos(yaw), np.sin(yaw), 0.0]), down, origin))
+    # from the side: horizontal approach from the robot's side, closing axis horizontal
+    toward = np.array([centroid[0], centroid[1], 0.0])
+    toward /= max(np.linalg.norm(toward), 1e-9)
+    side_height = max(0.5 * top, cfg.min_tcp_height_m)
+    for angle in np.radians(cfg.side_approach_deg):
+        c, s = np.cos(angle), np.sin(angle)
+        z = np.array([c * toward[0] - s * toward[1], s * toward[0] + c * toward[1], 0.0])
+        poses.append(frame(np.cross([0.0, 0.0, 1.0], z), z, np.array([centre_xy[0], centre_xy[1], side_height])))
+    out = []
+    for T in poses:
+        pinch = _pinch(points, normals, T)
+        if pinch is None:
+            rejected["nothing between the fingers"] += 1
+            continue
+        width, antipodal, shift = pinch
+        T = T.copy()
+        T[:3, 3] += shift * T[:3, 1]
+        if width + 2 * cfg.finger_clearance_m > max_width_m:
+            rejected["too wide for the gripper"] += 1
+            continue
+        approach = float(np.clip(T[:3, 2] @ down, 0.0, 1.0))
+        centred = float(np.clip(1.0 - 2 * np.linalg.norm(T[:2, 3] - centre_xy) / max(size, 1e-6), 0.0, 1.0))
+        out.append(Candidate("grasp", T, width, antipodal, approach, centred))
+    return out, rejected
+
+
+def push_candidates(points: np.ndarray, direction: np.ndarray, cfg: ContactConfig) -> list[Candidate]:
+    """Closed fingers behind the object (opposite the horizontal push direction), approaching from above."""
+    d = np.array([direction[0], direction[1], 0.0])
+    if np.linalg.norm(d) < 1e-6:
+        return []
+    d /= np.linalg.norm(d)
+    along = points @ d
+    back = points[along < np.percentile(along, 5) + 0.005]
+    centroid = points.mean(axis=0)
+    top = float(np.percentile(points[:, 2], 98))
+    out = []
+    for frac in (0.35, 0.6):
+        height = max(frac * top, cfg.min_tcp_height_m)
+        contact = np.array([*back[:, :2].mean(axis=0), height]) - (cfg.push_standoff_m + 0.01) * d
+        # closing axis across the push so the closed fingers present their broad side to the object
+        T = frame(np.cross([0.0, 0.0, 1.0], d), np.array([0.0, 0.0, -1.0]), contact)
+        lateral = np.linalg.norm((contact - centroid)[:2] - ((contact - centroid)[:2] @ d[:2]) * d[:2])
+        out.append(Candidate("push", T, 0.0, 1.0, 1.0, float(np.clip(1 - lateral / 0.05, 0, 1))))
+    return out

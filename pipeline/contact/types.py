@@ -1,0 +1,78 @@
+"""Contact planning settings and results."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from drivers.config import StrictModel
+
+ContactMode = Literal["grasp", "push"]
+
+
+class ContactConfig(StrictModel):
+    """Sampling, filtering and scoring of contact poses (lengths in metres, angles in degrees)."""
+
+    yaw_step_deg: float = Field(default=15.0, gt=0, description="closing-axis step of the grasp sweep")
+    side_approach_deg: tuple[float, ...] = (-30.0, 0.0, 30.0)
+    finger_clearance_m: float = Field(default=0.008, ge=0, description="free gap kept each side when opening")
+    squeeze_m: float = Field(default=0.02, ge=0, description="commanded width below the object's width")
+    grasp_depth_m: float = Field(default=0.04, gt=0, description="how far the TCP goes below the object top")
+    min_tcp_height_m: float = Field(default=0.012, ge=0, description="lowest TCP height above the table")
+    max_tilt_deg: float = Field(default=100.0, gt=0, le=180, description="cone: approach axis vs straight down")
+    pre_distance_m: float = Field(default=0.10, gt=0, description="pre-contact pose backed off along the approach")
+    push_standoff_m: float = Field(default=0.015, ge=0, description="closed fingers this far behind the contact")
+    collision_padding_m: float = Field(default=0.005, ge=0)
+    placed_clearance_m: float = Field(default=0.004, ge=0, description="moved object vs other scene points")
+    ik_candidates: int = Field(default=12, ge=1, description="best geometric candidates checked for reachability")
+    keep: int = Field(default=5, ge=1, description="reachable plans returned")
+    weights: dict[str, float] = Field(
+        default_factory=lambda: {"antipodal": 1.0, "centred": 0.7, "approach": 0.5, "reach": 0.5}
+    )
+
+
+@dataclass(frozen=True)
+class ContactPlan:
+    """One contact decision, TCP poses in the base frame (TCP z = approach direction, y = closing axis)."""
+
+    mode: ContactMode
+    T_pre: np.ndarray
+    T_contact: np.ndarray
+    T_goal: np.ndarray  # T_contact carried by the object motion (rigid-grasp / rigid-push assumption)
+    width_m: float  # finger gap to command at contact (grasp: below the object's width; push: closed)
+    object_width_m: float  # measured gap the object needs between the fingers (0 for pushes)
+    score: float
+    scores: dict[str, float]
+    q_pre: np.ndarray | None = None
+    q_contact: np.ndarray | None = None
+    q_goal: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class ContactResult:
+    """Ranked plans (best first) and how many candidates each filter rejected."""
+
+    plans: list[ContactPlan]
+    rejected: dict[str, int] = field(default_factory=dict)
+    candidates: int = 0
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.plans)
+
+    @property
+    def best(self) -> ContactPlan:
+        if not self.plans:
+            raise ValueError(f"no feasible contact: {self.reason}")
+        return self.plans[0]
+
+    @property
+    def reason(self) -> str:
+        """Why nothing was found (empty when plans exist): the rejection counts, largest first."""
+        if self.plans:
+            return ""
+        parts = [f"{n} {why}" for why, n in sorted(self.rejected.items(), key=lambda kv: -kv[1])]
+        return f"all {self.candidates} candidates rejected: " + (", ".join(parts) or "no candidate sampled")
