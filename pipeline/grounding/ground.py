@@ -103,7 +103,9 @@ def ground(
     tol = max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
     up = _up_direction(points0[background & np.isfinite(depth0)], T_base_camera, rng)
     grow = int(np.ceil(0.1 * size * K.fx / float(np.median(cloud0[:, 2]))))
-    candidates = [f.transform for f in fits] + sweep_hypotheses(
+    lo, hi = cfg.scale_range
+    plausible = [f.transform for f in fits if lo <= f.transform.scale <= hi]  # refits can drift out of range
+    candidates = plausible + sweep_hypotheses(
         view0.cloud,
         view0.normals,
         mask_closeness(inp.mask0, grow),
@@ -137,7 +139,6 @@ def ground(
             f"object size {size * 1000:.0f} mm)",
             **common,
         )
-    lo, hi = cfg.scale_range
     if not lo <= sim.scale <= hi:
         return refuse(
             f"implausible scale {sim.scale:.3f} between goal and initial object (allowed {lo}-{hi})", **common

@@ -16,7 +16,7 @@ from pipeline.grounding.umeyama import Similarity
 
 
 def rotation_sweep(
-    up: np.ndarray, yaw_step_deg: float = 15.0, tilts_deg: tuple[float, ...] = (45.0, 90.0)
+    up: np.ndarray, yaw_step_deg: float = 15.0, tilts_deg: tuple[float, ...] = (30.0, 60.0, 90.0)
 ) -> np.ndarray:
     """(M, 3, 3) rotations about `up` combined with tilts about an axis perpendicular to it."""
     up = up / np.linalg.norm(up)
