@@ -46,6 +46,8 @@ class ContactPoses:
     T_goal: np.ndarray  # T_contact moved with the object to its goal (grasp: place pose; push: push end)
     width_m: float  # finger gap to command at contact (grasp: below the object's width)
     held: Primitive | None = None  # the object's geometry in the TCP frame once grasped
+    open_width_m: float | None = None  # finger gap for the approach (None: fully open)
+    source: str = ""  # who decided (for the record), e.g. "pipeline.contact #1 score 0.82"
 
 
 @dataclass(frozen=True)
@@ -125,16 +127,17 @@ class Chain:
 
 def plan_grasp(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     g = chain.robot.spec.gripper
-    open_w = g.max_width_m
-    reach_world = chain.world(open_w)
+    open_w = poses.open_width_m or g.max_width_m
+    reach_world = chain.world(g.max_width_m)
     planner = Planner(reach_world, chain.limits)
     q_pre = chain.goal_q(reach_world, poses.T_pre, chain.q0, "pre-grasp pose")
     to_pre = chain.free(planner, chain.q0, q_pre, "path to the pre-grasp pose")
     T_lift = lifted(poses.T_contact, LIFT_M)
     approach = chain.line(planner, q_pre, poses.T_contact, "approach to the grasp")
     lift = chain.line(planner, approach[-1], T_lift, "lift after the grasp")
+    opening = GripperAction("open", OPEN_S, open_w)
     reach = chain.approved(
-        [to_pre, approach, GripperAction("close", CLOSE_S, poses.width_m), lift],
+        [to_pre, opening, approach, GripperAction("close", CLOSE_S, poses.width_m), lift],
         reach_world,
         chain.q0,
         "reach and grasp",
@@ -147,9 +150,10 @@ def plan_grasp(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     q_above = chain.goal_q(carry_world, T_above, lift[-1], "pose above the place")
     to_above = chain.free(carry_planner, lift[-1], q_above, "carry path")
     down = chain.line(carry_planner, q_above, T_place, "descent to the place pose")
-    carry = chain.approved([to_above, down, GripperAction("open", OPEN_S, open_w)], carry_world, lift[-1], "carry")
+    release = GripperAction("open", OPEN_S, g.max_width_m)
+    carry = chain.approved([to_above, down, release], carry_world, lift[-1], "carry")
 
-    leave_world = chain.world(open_w)
+    leave_world = chain.world(g.max_width_m)
     leave_planner = Planner(leave_world, chain.limits)
     up = chain.line(leave_planner, down[-1], lifted(T_place, LIFT_M), "retreat")
     home = chain.free(leave_planner, up[-1], chain.home, "path home")
@@ -174,8 +178,7 @@ def plan_push(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     return ManipulationPlan((phase,), ("push",), poses, waypoints)
 
 
-def plan_manipulation(ctx: RunContext, poses: ContactPoses) -> ManipulationPlan:
-    chain = Chain(ctx)
+def plan_manipulation(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     if poses.mode == "grasp":
         return plan_grasp(chain, poses)
     if poses.mode == "push":

@@ -61,7 +61,7 @@ def target_object(ctx: RunContext) -> str:
 class GroundTruthGraspStages(PipelineStages):
     """PipelineStages whose contact decision is the ground-truth top-down grasp of the target."""
 
-    def contact_poses(self, ctx: RunContext) -> ContactPoses:
+    def contact_candidates(self, ctx: RunContext, chain) -> list[ContactPoses]:
         world = ctx.devices.world
         if world is None:
             raise StageError("the ground-truth grasp needs the simulator")
@@ -72,4 +72,5 @@ class GroundTruthGraspStages(PipelineStages):
         T_pre[2, 3] += PRE_GRASP_M
         held = Primitive(f"held:{name}", load_robot_spec().tcp_link, "box", size)
         width = min(size[:2]) - FINGER_SQUEEZE_M
-        return ContactPoses("grasp", T_pre, T_contact, ctx.motion.T_base @ T_contact, width, held)
+        T_goal = ctx.motion.T_base @ T_contact
+        return [ContactPoses("grasp", T_pre, T_contact, T_goal, width, held, source="sim oracle")]

@@ -21,6 +21,8 @@ from runtime.verify import compare, object_centre, rotation_deg
 
 log = logging.getLogger(__name__)
 
+MAX_CONTACTS = 3  # ranked contact decisions tried before planning gives up
+
 
 def require(stage: str, module: str, *names: str) -> Any:
     """Import `module` and return the named attributes, or StageUnavailable naming what is missing."""
@@ -118,16 +120,27 @@ class PipelineStages:
         ctx.motion = motion
 
     # -- planning -----------------------------------------------------------------------------------------
-    def contact_poses(self, ctx: RunContext):
-        """The contact stage's decision as runtime.manipulation.ContactPoses."""
-        plan_contact = require("contact", "pipeline.contact", "plan_contact")
-        return plan_contact(ctx)
+    def contact_candidates(self, ctx: RunContext, chain) -> list:
+        """The contact stage's ranked decisions as runtime.manipulation.ContactPoses."""
+        candidates = require("contact", "runtime.contact_adapter", "contact_candidates")
+        return candidates(ctx, chain)
 
     def plan(self, ctx: RunContext) -> PlanSummary:
-        plan_manipulation = require("planning", "runtime.manipulation", "plan_manipulation")
+        """The best-ranked contact whose whole manipulation plans and passes the gate (up to MAX_CONTACTS)."""
+        Chain, plan_manipulation = require("planning", "runtime.manipulation", "Chain", "plan_manipulation")
         draw_tcp_poses = require("planning", "runtime.overlay", "draw_tcp_poses")
-        poses = self.contact_poses(ctx)
-        plan = plan_manipulation(ctx, poses)
+        chain = Chain(ctx)
+        refusals = []
+        for poses in self.contact_candidates(ctx, chain)[:MAX_CONTACTS]:
+            try:
+                plan = plan_manipulation(chain, poses)
+                break
+            except StageError as e:
+                refusals.append(f"{poses.source or poses.mode}: {e}")
+        else:
+            ctx.record.note(planning_refusals=refusals)
+            raise StageError("no contact could be planned:\n  " + "\n  ".join(refusals))
+        ctx.record.note(planning_refusals=refusals, contact_used=poses.source)
         ctx.trajectory = plan
         frame = ctx.frame0
         ctx.record.image("plan", draw_tcp_poses(frame.rgb, frame.intrinsics, frame.T_base_camera, plan.tcp_waypoints))

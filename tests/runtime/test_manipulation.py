@@ -16,7 +16,7 @@ from motion.executor import Executor, ExecutorConfig
 from motion.limits import MotionLimits
 from runtime.context import RunContext, StageError
 from runtime.devices import open_devices
-from runtime.manipulation import ContactPoses, plan_manipulation
+from runtime.manipulation import Chain, ContactPoses, plan_manipulation
 from runtime.record import RunRecord
 from runtime.sim_oracle import top_down_grasp
 from safety.geometry import Primitive
@@ -56,7 +56,7 @@ def test_pick_and_place_moves_the_block(scene):
     ctx, dev = scene
     before = dev.world.object_pose("red_block")[:3, 3]
     shift = np.array([0.0, 0.15, 0.0])
-    plan = plan_manipulation(ctx, grasp_poses(dev, shift))
+    plan = plan_manipulation(Chain(ctx), grasp_poses(dev, shift))
     assert plan.phase_names == ("reach", "carry", "leave")
     assert all(p.report.ok for p in plan.phases)  # each phase passed the gate in its own world
     assert max(plan.peak_joint_speed_rad_s) <= ctx.profile.safety.max_joint_velocity_rad_s + 1e-6
@@ -68,7 +68,7 @@ def test_pick_and_place_moves_the_block(scene):
     )
     reports = [executor.execute(p) for p in plan.phases]
     assert [r.status for r in reports] == ["completed"] * 3
-    assert reports[0].gripper[0].grasped
+    assert [g.grasped for g in reports[0].gripper if g.event.kind == "close"] == [True]
     moved = dev.world.object_pose("red_block")[:3, 3] - before
     assert np.linalg.norm(moved - shift) < 0.02, moved
 
@@ -76,4 +76,4 @@ def test_pick_and_place_moves_the_block(scene):
 def test_unreachable_goal_is_refused_with_the_reason(scene):
     ctx, dev = scene
     with pytest.raises(StageError, match="IK solution"):
-        plan_manipulation(ctx, grasp_poses(dev, np.array([1.5, 0.0, 0.0])))
+        plan_manipulation(Chain(ctx), grasp_poses(dev, np.array([1.5, 0.0, 0.0])))

@@ -1,0 +1,89 @@
+"""The contact stage for a run: pipeline.contact's ranked plans as ContactPoses the manipulation chain uses.
+
+What the runtime adds is the hand-over: the target's and the scene's points in the base frame (from the initial
+capture and the reasoning stage's mask), the mode the instruction asks for, and a model of the grasped object
+for the carry phase (its points' bounding box in the TCP frame at the grasp, symmetric about the closing axis
+because the camera sees only the object's front).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from runtime.context import RunContext, StageError
+from runtime.manipulation import Chain, ContactPoses
+from runtime.stages import require
+from safety.geometry import Primitive, transform_points
+
+PUSH_ACTIONS = ("push", "close")
+
+
+def contact_mode(instruction: str) -> str:
+    """push for the grammar's push/close sentences, grasp otherwise (free text from a model backend included)."""
+    parse = require("contact", "pipeline.reasoning.instruction", "parse_instruction")
+    try:
+        action = parse(instruction).action
+    except ValueError:
+        return "grasp"
+    return "push" if action in PUSH_ACTIONS else "grasp"
+
+
+def target_points(ctx: RunContext) -> np.ndarray:
+    """The target's visible points (N, 3) in the base frame."""
+    frame, mask = ctx.frame0, ctx.goal.mask_init
+    valid = mask & np.isfinite(frame.depth)
+    points_camera = frame.intrinsics.unproject_depth_image(frame.depth)[valid]
+    return transform_points(frame.T_base_camera, points_camera)
+
+
+def held_box(points_base: np.ndarray, T_base_tcp: np.ndarray, tcp_link: str, name: str) -> Primitive:
+    """The grasped object as a box in the TCP frame: the points' extent, mirrored about the TCP's z axis."""
+    local = transform_points(np.linalg.inv(T_base_tcp), points_base)
+    half_xy = np.max(np.abs(local[:, :2]), axis=0)
+    z0, z1 = float(local[:, 2].min()), float(local[:, 2].max())
+    T = np.eye(4)
+    T[2, 3] = (z0 + z1) / 2
+    return Primitive(f"held:{name}", tcp_link, "box", (2 * half_xy[0], 2 * half_xy[1], z1 - z0), T)
+
+
+def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
+    """Ranked ContactPoses; StageError with pipeline.contact's rejection counts when there is none."""
+    plan_contacts = require("contact", "pipeline.contact.planner", "plan_contacts")
+    ContactConfig = require("contact", "pipeline.contact.types", "ContactConfig")
+    mode = contact_mode(ctx.instruction)
+    points = target_points(ctx)
+    config = getattr(ctx.profile.pipeline, "contact", None) or ContactConfig()
+    result = plan_contacts(
+        points,
+        chain.points,
+        ctx.motion.T_base,
+        chain.robot,
+        mode=mode,
+        config=config,
+        q_seed=chain.q0,
+        collision_world=chain.world(chain.robot.spec.gripper.max_width_m),
+        viewpoint=ctx.frame0.T_base_camera[:3, 3],
+    )
+    ctx.record.note(
+        contact={"mode": mode, "candidates": result.candidates, "plans": len(result.plans), "rejected": result.rejected}
+    )
+    if not result.ok:
+        raise StageError(f"no feasible {mode}: {result.reason}")
+    target = getattr(ctx.goal, "target", "target")
+    out = []
+    for rank, plan in enumerate(result.plans, start=1):
+        held = held_box(points, plan.T_contact, chain.robot.tcp_frame, target) if mode == "grasp" else None
+        open_w = None if mode == "push" else min(chain.robot.spec.gripper.max_width_m, plan.object_width_m + 0.016)
+        out.append(
+            ContactPoses(
+                plan.mode,
+                plan.T_pre,
+                plan.T_contact,
+                plan.T_goal,
+                plan.width_m,
+                held,
+                open_w,
+                f"pipeline.contact #{rank} score {plan.score:.2f}",
+            )
+        )
+    return out
