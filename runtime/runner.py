@@ -93,7 +93,6 @@ class Runtime:
             else None
         )
         self.arm_halted = False  # the last run stopped the arm mid-way: Reset before the next run
-        self._ctx: RunContext | None = None
         # One long-lived thread runs every stage: device handles that are bound to a thread (the sim camera's GL
         # context) stay on it, and the run loop only waits on it, so it can give up on a stuck stage.
         self._stage_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="stage")
@@ -139,7 +138,6 @@ class Runtime:
             record.note(scene=self.profile.sim.scene, seed=self.profile.sim.seed)
         self.status.run_id, self.status.plan_id, self.status.instruction = run_id, "", instruction
         ctx = RunContext(self.profile, self.devices, instruction, record, self.supervisor.cancel)
-        self._ctx = ctx
         self.machine.add_listener(record.on_transition)
         try:
             self._sequence(ctx)
@@ -152,7 +150,6 @@ class Runtime:
                 self.supervisor.fail(str(e))
         finally:
             self.machine.remove_listener(record.on_transition)
-            self._ctx = None
             self._end_motion(ctx)
         state, reason = self.machine.state, self.machine.reason
         record.finish(state.value, reason)

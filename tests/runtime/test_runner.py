@@ -45,12 +45,12 @@ def session(sim_config_path, tmp_path):
     """Factory: (runtime, devices, stages) on the realtime sim; everything closed at the end."""
     stack = []
 
-    def make(stages=None, confirm="yes", runtime=None, faults=None):
+    def make(stages=None, confirm="yes", runtime=None, faults=None, prompt=None):
         profile = make_profile(sim_config_path, runtime, faults)
         cm = open_devices(profile)
         devices = cm.__enter__()
         stack.append(cm)
-        rt = Runtime(profile, devices, stages or ScriptedStages(), confirm=confirm)
+        rt = Runtime(profile, devices, stages or ScriptedStages(), confirm=confirm, prompt=prompt)
         stack.append(rt)
         assert wait_for(rt.supervisor.deadman_ok)
         return rt, devices
@@ -214,3 +214,17 @@ def test_in_process_estop_refused_on_hardware(sim_config_path):
     )
     with pytest.raises(ValueError, match="sim only"):
         Runtime(profile, devices=None, stages=ScriptedStages())
+
+
+@pytest.mark.parametrize("answer", [True, False])
+def test_terminal_prompt_sees_the_plan_and_decides(session, tmp_path, answer):
+    asked = []
+    stages = ScriptedStages()
+    rt, _ = session(stages, confirm="prompt", prompt=lambda plan: asked.append(plan.plan_id) or answer)
+    result = rt.run("x", tmp_path / "run")
+    assert asked == [result.summary["plan"]["plan_id"]]
+    if answer:
+        assert result.ok and result.summary["confirmed_by"] == "terminal"
+    else:
+        assert result.status == State.FAILED and result.reason == f"plan {asked[0]} declined by terminal"
+        assert stages.streamed == 0
