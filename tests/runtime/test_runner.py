@@ -228,3 +228,17 @@ def test_terminal_prompt_sees_the_plan_and_decides(session, tmp_path, answer):
     else:
         assert result.status == State.FAILED and result.reason == f"plan {asked[0]} declined by terminal"
         assert stages.streamed == 0
+
+
+def test_stalled_driver_call_cannot_hold_the_run(session, tmp_path):
+    """A servo call that blocks for 3 s: the executing budget ends the run and the arm is stopped meanwhile."""
+    stages = ScriptedStages(move_speed_rad_s=0.12)
+    rt, devices = session(
+        stages, runtime={"budgets_s": {"executing": 1.0}}, faults={"servo_stall_at_s": 0.0, "servo_stall_s": 3.0}
+    )
+    t0 = time.monotonic()
+    result = rt.run("x", tmp_path / "run")
+    assert time.monotonic() - t0 < 6.0  # capture .. confirm + 1 s budget, not the 3 s stall on top
+    assert result.status == State.FAILED and "EXECUTING took too long" in result.reason
+    assert stages.streamed == 0 and rt.supervisor.stop_count >= 1
+    assert_still(devices)
