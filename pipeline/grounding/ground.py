@@ -12,12 +12,12 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
-from pipeline.grounding.hypotheses import mask_closeness, sweep_hypotheses
+from pipeline.grounding.hypotheses import sweep_hypotheses
 from pipeline.grounding.matching import match_pixels, pairwise_consistency
-from pipeline.grounding.refine import icp_refine
+from pipeline.grounding.select import select_motion
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
-from pipeline.grounding.umeyama import Similarity, ransac_similarity, umeyama
-from pipeline.grounding.verify import chromaticity, make_view, view_consistency
+from pipeline.grounding.umeyama import ransac_similarity
+from pipeline.grounding.verify import chromaticity, make_view
 from pipeline.perception.features import FeatureExtractor
 
 MAX_CONSISTENCY_MATCHES = 1500
@@ -100,27 +100,11 @@ def ground(
     voxel = max(cfg.icp_voxel_m, size / 40)
     view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
     view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel)
-    tol = max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
     up = _up_direction(points0[background & np.isfinite(depth0)], T_base_camera, rng)
-    grow = int(np.ceil(0.1 * size * K.fx / float(np.median(cloud0[:, 2]))))
     lo, hi = cfg.scale_range
     plausible = [f.transform for f in fits if lo <= f.transform.scale <= hi]  # refits can drift out of range
-    candidates = plausible + sweep_hypotheses(
-        view0.cloud,
-        view0.normals,
-        mask_closeness(inp.mask0, grow),
-        view1.cloud,
-        view1.normals,
-        mask_closeness(inp.mask1, grow),
-        K,
-        up,
-        cfg.sweep_hypotheses,
-    )
-    scored = []
-    for hypothesis in candidates:
-        sim = _refine(hypothesis, view0.cloud, view1.cloud, size, cfg) if cfg.icp else hypothesis
-        scored.append((view_consistency(sim, view0, view1, K, tol), sim))
-    view_score, sim = max(scored, key=lambda x: x[0])
+    candidates = plausible + sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
+    view_score, sim = select_motion(candidates, view0, view1, K, size, cfg)
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())
@@ -191,22 +175,3 @@ def _second_extent(points: np.ndarray) -> float:
         return 0.0
     ev = np.linalg.svd(points - points.mean(axis=0), compute_uv=False) / np.sqrt(len(points))
     return float(np.sqrt(12.0) * ev[1])
-
-
-def _refine(sim: Similarity, cloud0: np.ndarray, cloud1: np.ndarray, size: float, cfg: GroundingConfig) -> Similarity:
-    """ICP of the scaled initial cloud onto the goal cloud, kept only if it stays near the RANSAC answer."""
-    T0 = np.eye(4)
-    T0[:3, :3], T0[:3, 3] = sim.R, sim.t
-    res = icp_refine(sim.scale * cloud0, cloud1, T0, cfg.icp_max_corr_rel * size, max(cfg.icp_voxel_m, size / 40))
-    if res is None or res.fitness < 0.3:
-        return sim
-    dR = res.T[:3, :3] @ sim.R.T
-    angle = np.degrees(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1)))
-    c = sim.scale * cloud0.mean(axis=0)
-    shift = np.linalg.norm((res.T[:3, :3] @ c + res.T[:3, 3]) - (sim.R @ c + sim.t))
-    if angle > 15.0 or shift > 0.25 * size:
-        return sim
-    return Similarity(sim.scale, res.T[:3, :3], res.T[:3, 3])
-
-
-__all__ = ["GroundingConfig", "GroundingInput", "ObjectMotion", "ground", "umeyama"]

@@ -3,7 +3,8 @@
 On uniform or symmetric objects feature matches are ambiguous and RANSAC may never sample the right motion.
 Objects on a table mostly turn about the table normal and sometimes tip over, so a sweep of rotations
 yaw(a) . tilt(theta) . yaw(b) about the normal, each with the translation that aligns the cloud centroids,
-covers the likely motions at a coarse step; a vectorised silhouette check keeps the few worth refining.
+covers the likely motions at a coarse step. A vectorised render-and-compare check (soft silhouette, depth and
+colour agreement at a coarse tolerance, both ways) keeps the few worth refining.
 """
 
 from __future__ import annotations
@@ -13,6 +14,10 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.umeyama import Similarity
+from pipeline.grounding.verify import View
+
+MAX_POINTS = 200  # per cloud: a coarse check needs the shape, not every point
+CHROMA_SIGMA = 0.08
 
 
 def rotation_sweep(
@@ -35,16 +40,30 @@ def rotation_sweep(
     return np.concatenate(out)
 
 
-def _mask_share(X: np.ndarray, normals: np.ndarray, closeness: np.ndarray, K: CameraIntrinsics) -> np.ndarray:
-    """(M, N, 3) moved points and normals -> mean closeness to the mask of the camera-facing ones."""
+def _agreement(
+    X: np.ndarray,
+    normals: np.ndarray,
+    chroma: np.ndarray,
+    other: View,
+    closeness: np.ndarray,
+    K: CameraIntrinsics,
+    tol_m: float,
+) -> np.ndarray:
+    """(M, N, 3) moved points -> mean soft agreement (silhouette x depth x colour) of the camera-facing, not
+    occluded ones with the other view."""
     facing = np.einsum("mni,mni->mn", normals, X) < 0
     z = np.maximum(X[..., 2], 1e-3)
     u = np.round(K.fx * X[..., 0] / z + K.cx).astype(int)
     v = np.round(K.fy * X[..., 1] / z + K.cy).astype(int)
     inside = (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
-    hit = np.zeros(inside.shape)
-    hit[inside] = closeness[v[inside], u[inside]]
-    return (hit * facing).sum(axis=1) / np.maximum(facing.sum(axis=1), 1)
+    u, v = np.where(inside, u, 0), np.where(inside, v, 0)
+    d = other.depth[v, u]
+    seen = np.isfinite(d)
+    d = np.where(seen, d, z)
+    counted = facing & (~inside | ~seen | (z < d + tol_m))  # points behind the observed surface: no evidence
+    colour = np.exp(-np.sum((other.chroma_image[v, u] - chroma[None]) ** 2, axis=-1) / CHROMA_SIGMA**2)
+    hit = inside * closeness[v, u] * np.exp(-(((z - d) / tol_m) ** 2)) * colour
+    return (hit * counted).sum(axis=1) / np.maximum(counted.sum(axis=1), 1)
 
 
 def mask_closeness(mask: np.ndarray, sigma_px: float) -> np.ndarray:
@@ -55,41 +74,38 @@ def mask_closeness(mask: np.ndarray, sigma_px: float) -> np.ndarray:
     return np.exp(-((d / max(sigma_px, 0.5)) ** 2))
 
 
-def silhouette_scores(
+def coarse_scores(
     rotations: np.ndarray,
-    cloud0: np.ndarray,
-    normals0: np.ndarray,
+    view0: View,
+    view1: View,
     closeness0: np.ndarray,
-    cloud1: np.ndarray,
-    normals1: np.ndarray,
     closeness1: np.ndarray,
     K: CameraIntrinsics,
+    tol_m: float,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Score each rotation (with the translation that aligns the centroids): how close the camera-facing points
-    land to the other view's silhouette (`closeness` maps), initial -> goal and goal -> initial. Returns
-    scores (M,) and translations (M, 3)."""
-    c0, c1 = cloud0.mean(axis=0), cloud1.mean(axis=0)
-    X = np.einsum("mij,nj->mni", rotations, cloud0 - c0) + c1
-    fwd = _mask_share(X, np.einsum("mij,nj->mni", rotations, normals0), closeness1, K)
-    Y = np.einsum("mji,nj->mni", rotations, cloud1 - c1) + c0
-    bwd = _mask_share(Y, np.einsum("mji,nj->mni", rotations, normals1), closeness0, K)
+    """Score each rotation, with the translation that aligns the cloud centroids, initial -> goal and back.
+    Returns scores (M,) in 0..1 and translations (M, 3)."""
+    c0, c1 = view0.cloud.mean(axis=0), view1.cloud.mean(axis=0)
+    s0, s1 = max(1, len(view0.cloud) // MAX_POINTS), max(1, len(view1.cloud) // MAX_POINTS)
+    p0, n0, k0 = view0.cloud[::s0], view0.normals[::s0], view0.chroma[::s0]
+    p1, n1, k1 = view1.cloud[::s1], view1.normals[::s1], view1.chroma[::s1]
+    X = np.einsum("mij,nj->mni", rotations, p0 - c0) + c1
+    fwd = _agreement(X, np.einsum("mij,nj->mni", rotations, n0), k0, view1, closeness1, K, tol_m)
+    Y = np.einsum("mji,nj->mni", rotations, p1 - c1) + c0
+    bwd = _agreement(Y, np.einsum("mji,nj->mni", rotations, n1), k1, view0, closeness0, K, tol_m)
     t = c1 - np.einsum("mij,j->mi", rotations, c0)
     return 0.5 * (fwd + bwd), t
 
 
 def sweep_hypotheses(
-    cloud0: np.ndarray,
-    normals0: np.ndarray,
-    closeness0: np.ndarray,
-    cloud1: np.ndarray,
-    normals1: np.ndarray,
-    closeness1: np.ndarray,
-    K: CameraIntrinsics,
-    up: np.ndarray,
-    keep: int,
+    view0: View, view1: View, K: CameraIntrinsics, up: np.ndarray, keep: int, size_m: float
 ) -> list[Similarity]:
-    """The `keep` best-scoring rotations of the sweep (closeness width ~ the expected centroid shift)."""
+    """The `keep` best rotations of the sweep; tolerances scale with the object (the centroids of two partial
+    views can differ by a good part of its size)."""
+    sigma_px = 0.1 * size_m * K.fx / float(np.median(view0.cloud[:, 2]))
+    closeness0 = mask_closeness(view0.mask, sigma_px)
+    closeness1 = mask_closeness(view1.mask, sigma_px)
     rotations = rotation_sweep(up)
-    scores, t = silhouette_scores(rotations, cloud0, normals0, closeness0, cloud1, normals1, closeness1, K)
+    scores, t = coarse_scores(rotations, view0, view1, closeness0, closeness1, K, 0.15 * size_m)
     best = np.argsort(-scores)[:keep]
     return [Similarity(1.0, rotations[k], t[k]) for k in best]

@@ -71,7 +71,9 @@ def _agreement(
     same_colour = np.linalg.norm(dst.chroma_image[v, u] - colour, axis=1) < chroma_tol
     agree = int((on_object & same_colour).sum())
     evidence = int((~occluded).sum()) + outside_count
-    return agree / max(evidence, 1), evidence
+    # a hypothesis that hides most of the object behind the observed surface has little evidence either way:
+    # count at least half of the camera-facing points so it cannot score by hiding
+    return agree / max(evidence, len(X) // 2, 1), evidence
 
 
 def view_consistency(
