@@ -41,6 +41,8 @@ def ground(
 ) -> ObjectMotion:
     """ObjectMotion (x_goal = R x_init + t, camera frame) or a refusal with its reason."""
     cfg = config or GroundingConfig()
+    if cfg.work_width_px is not None and cfg.work_width_px < inp.intrinsics.width:
+        inp = inp.resized(cfg.work_width_px)
     K = inp.intrinsics
     depth0 = np.where(np.isfinite(inp.depth0) & (inp.depth0 > 0), inp.depth0, np.nan).astype(np.float32)
     background = ~(inp.mask0 | inp.mask1)

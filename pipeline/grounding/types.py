@@ -19,6 +19,7 @@ class GroundingError(ValueError):
 class GroundingConfig(StrictModel):
     """Settings of our grounding (defaults tuned on bench/grounding.py)."""
 
+    work_width_px: int | None = Field(default=None, ge=32, description="ground on images resized to this width")
     max_source_pixels: int = Field(default=1500, ge=10, description="object pixels of the initial image matched")
     mutual: bool = Field(default=True, description="keep only mutual nearest neighbours")
     min_similarity: float = Field(default=0.6, ge=-1, le=1, description="cosine similarity below this is dropped")
@@ -132,3 +133,26 @@ class GroundingInput:
                 raise GroundingError(f"{key} is empty: no object pixels")
         if self.depth1_kind not in ("depth", "disparity"):
             raise GroundingError(f"depth1_kind must be 'depth' or 'disparity', got {self.depth1_kind!r}")
+
+    def resized(self, width: int) -> GroundingInput:
+        """Both views at `width` pixels (aspect kept), intrinsics resized to match: colour is area-averaged,
+        depth and masks take the nearest pixel so no value mixes foreground and background."""
+        import cv2
+
+        K = self.intrinsics
+        height = max(1, round(K.height * width / K.width))
+        size = (width, height)
+
+        def near(a: np.ndarray) -> np.ndarray:
+            return cv2.resize(a, size, interpolation=cv2.INTER_NEAREST)
+
+        return GroundingInput(
+            cv2.resize(self.rgb0, size, interpolation=cv2.INTER_AREA),
+            near(self.depth0.astype(np.float32)),
+            near(self.mask0.astype(np.uint8)).astype(bool),
+            cv2.resize(self.rgb1, size, interpolation=cv2.INTER_AREA),
+            near(self.depth1.astype(np.float32)),
+            self.depth1_kind,
+            near(self.mask1.astype(np.uint8)).astype(bool),
+            K.resized(width, height),
+        )

@@ -45,6 +45,18 @@ def test_pan_shift_and_turn_is_recovered(pan_pair):
     )
 
 
+def test_half_resolution_gives_the_same_motion(pan_pair):
+    """Intrinsics follow the resize (pixel-centre convention): the motion does not depend on the working size."""
+    from pipeline.grounding.types import GroundingConfig
+
+    full = ground(_input(pan_pair), FEATURES)
+    half = ground(_input(pan_pair), FEATURES, GroundingConfig(work_width_px=320))
+    assert full.ok and half.ok, (full.reason, half.reason)
+    t_err, r_err, _ = errors(pan_pair, half)
+    assert t_err < 10.0 and r_err < 4.0, (t_err, r_err)
+    assert np.linalg.norm(full.t - half.t) < 0.01
+
+
 def test_in_place_rotation_is_kept(pair_renderer):
     """A pure turn: most pixels barely move, which the release's 10 px cut would throw away."""
     pair = pair_renderer.render(
