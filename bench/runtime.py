@@ -34,12 +34,12 @@ TARGETS = {"estop_latency_p99_ms": 20.0, "run_wall_s_median": 30.0}
 # (scene, instruction) pairs; scenes missing from configs/scenes are reported as skipped
 TASKS = [
     ("tabletop", "put the red block on the white plate"),
-    ("tabletop", "place the blue block next to the green cylinder"),
-    ("tabletop", "move the green cylinder to the left of the red block"),
-    ("tomato_pan", "put the red tomato in the pan"),
-    ("block_platform", "place the block on the platform"),
-    ("bottle_stand", "stand the bottle up"),
-    ("box_lid", "close the box"),
+    ("pick_place", "put the red box on the white plate"),
+    ("pick_place", "place the green cylinder next to the blue box"),
+    ("block_scale", "put the yellow block on the black scale"),
+    ("tomato_pan", "put the red ball in the pan"),
+    ("bottle_standup", "stand the green bottle up"),
+    ("close_lid", "close the blue chest"),
 ]
 SENDER = """
 import sys, time

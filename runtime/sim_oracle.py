@@ -43,9 +43,11 @@ def box_size(world, name: str) -> tuple[float, float, float]:
     obj = next(o for o in world.scene.objects if o.name == name)
     if obj.kind == "box":
         return tuple(obj.size_m)
-    if obj.kind in ("cylinder", "bottle"):
+    if obj.kind == "cylinder":
         return (2 * obj.radius_m, 2 * obj.radius_m, obj.height_m)
-    raise StageError(f"the ground-truth grasp handles boxes and cylinders, not {obj.kind} ({name})")
+    if obj.kind == "sphere":
+        return (2 * obj.radius_m,) * 3
+    raise StageError(f"the ground-truth grasp handles upright boxes, cylinders and spheres, not {obj.kind} ({name})")
 
 
 def target_object(ctx: RunContext) -> str:
