@@ -1,9 +1,9 @@
 """The contact stage for a run: pipeline.contact's ranked plans as ContactPoses the manipulation chain uses.
 
-What the runtime adds is the hand-over: the target's and the scene's points in the base frame (from the initial
-capture and the reasoning stage's mask), the mode the instruction asks for, and a model of the grasped object
-for the carry phase (its points' bounding box in the TCP frame at the grasp, symmetric about the closing axis
-because the camera sees only the object's front).
+What the runtime adds is the hand-over: the target's and the scene's points in the base frame (the Chain's, from
+the initial capture and the reasoning stage's mask), the mode the instruction asks for, and a model of the
+grasped object for the carry phase (its points' bounding box in the TCP frame at the grasp, symmetric about the
+closing axis because the camera sees only the object's front).
 """
 
 from __future__ import annotations
@@ -28,14 +28,6 @@ def contact_mode(instruction: str) -> str:
     return "push" if action in PUSH_ACTIONS else "grasp"
 
 
-def target_points(ctx: RunContext) -> np.ndarray:
-    """The target's visible points (N, 3) in the base frame."""
-    frame, mask = ctx.frame0, ctx.goal.mask_init
-    valid = mask & np.isfinite(frame.depth)
-    points_camera = frame.intrinsics.unproject_depth_image(frame.depth)[valid]
-    return transform_points(frame.T_base_camera, points_camera)
-
-
 def held_box(points_base: np.ndarray, T_base_tcp: np.ndarray, tcp_link: str, name: str) -> Primitive:
     """The grasped object as a box in the TCP frame: the points' extent, mirrored about the TCP's z axis."""
     local = transform_points(np.linalg.inv(T_base_tcp), points_base)
@@ -51,7 +43,7 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
     plan_contacts = require("contact", "pipeline.contact.planner", "plan_contacts")
     ContactConfig = require("contact", "pipeline.contact.types", "ContactConfig")
     mode = contact_mode(ctx.instruction)
-    points = target_points(ctx)
+    points = chain.target_points
     config = getattr(ctx.profile.pipeline, "contact", None) or ContactConfig()
     result = plan_contacts(
         points,

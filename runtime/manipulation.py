@@ -1,12 +1,13 @@
 """From a contact plan to gate-approved trajectories: the pick-and-place or push sequence, phase by phase.
 
 The safety gate checks a trajectory against one collision world, and the world changes during a manipulation
-(the object leaves the table and rides in the gripper), so the sequence is cut where it changes and each phase
-is approved against its own world:
-  grasp:  1. reach: plan to the pre-grasp pose, straight in to the grasp, close, straight up (no held object)
-          2. carry: plan to above the place pose with the object attached to the TCP, straight down, open
-          3. leave: straight back up with the gripper open, then home (out of the camera's view)
-  push:   1. push:  plan to the pre-contact pose, close, straight in, push along the motion, straight back, home
+(the object is an obstacle until the hand reaches it, then rides in the gripper, then stands somewhere new), so
+the sequence is cut where it changes and each phase is approved against its own world. The arm rests at every
+cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
+  grasp:  approach (free path to the pre-grasp pose; the object is an obstacle) -> grasp (straight in, close,
+          straight up) -> carry (object attached to the TCP: free path above the place pose, straight down, open)
+          -> retreat (straight up) -> home (the placed object is an obstacle)
+  push:   approach (free path, close the fingers) -> push (straight in, push along the motion, back up) -> home
 The obstacle world is the camera's point cloud (robot, table and target removed) plus the table and the
 profile's workspace and keep-out boxes. The work itself is motion's (IK goals, OMPL, Cartesian lines, Ruckig)
 and safety's (the gate); this module only chains it.
@@ -17,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from motion.approval import ApprovedTrajectory, GateRefused, approve
 from motion.cartesian import CartesianPathError, cartesian_path
@@ -26,13 +28,14 @@ from motion.planner import Planner, PlanningError
 from motion.timing import GripperAction, TimingError, TrajectoryTimer
 from runtime.context import RunContext, StageError
 from safety.collision import CollisionWorld
-from safety.geometry import Primitive
+from safety.geometry import Primitive, transform_points
 from safety.pointcloud import cloud_from_frame
 from safety.robot_model import RobotModel
 
 LIFT_M = 0.10  # straight up after grasping / after releasing
 PLACE_CLEARANCE_M = 0.015  # the object is released this far above its goal resting pose (beyond padding)
 CLOSE_S, OPEN_S = 1.0, 0.6  # the arm holds still while the gripper moves
+TARGET_MARGIN_M = 0.015  # cloud points this close to the target's own points are the target's
 HAND_REGION_M = 0.07  # radius about the TCP at capture time whose points belong to the hand
 
 
@@ -92,10 +95,25 @@ class Chain:
         # the open gripper's gap is no robot primitive, so the camera's points of the inner finger faces survive
         # robot removal and would hang in the air where the hand was: drop the grasp region around the TCP
         tcp0 = self.robot.tcp_pose(self.q0)[:3, 3]
-        self.points = points[np.linalg.norm(points - tcp0, axis=1) > HAND_REGION_M]
+        points = points[np.linalg.norm(points - tcp0, axis=1) > HAND_REGION_M]
+        # depth smears the target's edges beyond its mask: drop what lies next to the target's own points too,
+        # or the carry would collide with a ghost of the object where it used to stand
+        frame = ctx.frame0
+        valid = ctx.goal.mask_init & np.isfinite(frame.depth)
+        self.target_points = transform_points(
+            frame.T_base_camera, frame.intrinsics.unproject_depth_image(frame.depth)[valid]
+        )
+        if len(self.target_points) and len(points):
+            near, _ = cKDTree(self.target_points).query(points, distance_upper_bound=TARGET_MARGIN_M)
+            points = points[~np.isfinite(near)]
+        self.points = points
 
-    def world(self, width_m: float, held: Primitive | None = None) -> CollisionWorld:
-        return CollisionWorld(self.robot, self.safety, points=self.points, held=held, gripper_width_m=width_m)
+    def world(
+        self, width_m: float, held: Primitive | None = None, obstacle: np.ndarray | None = None
+    ) -> CollisionWorld:
+        """The scene without the target; `obstacle` adds points (the target where it stands, before contact)."""
+        points = self.points if obstacle is None or not len(obstacle) else np.vstack([self.points, obstacle])
+        return CollisionWorld(self.robot, self.safety, points=points, held=held, gripper_width_m=width_m)
 
     def goal_q(self, world: CollisionWorld, T: np.ndarray, q_near: np.ndarray, what: str) -> np.ndarray:
         try:
@@ -128,54 +146,59 @@ class Chain:
 def plan_grasp(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     g = chain.robot.spec.gripper
     open_w = poses.open_width_m or g.max_width_m
-    reach_world = chain.world(g.max_width_m)
-    planner = Planner(reach_world, chain.limits)
-    q_pre = chain.goal_q(reach_world, poses.T_pre, chain.q0, "pre-grasp pose")
-    to_pre = chain.free(planner, chain.q0, q_pre, "path to the pre-grasp pose")
-    T_lift = lifted(poses.T_contact, LIFT_M)
-    approach = chain.line(planner, q_pre, poses.T_contact, "approach to the grasp")
-    lift = chain.line(planner, approach[-1], T_lift, "lift after the grasp")
-    opening = GripperAction("open", OPEN_S, open_w)
-    reach = chain.approved(
-        [to_pre, opening, approach, GripperAction("close", CLOSE_S, poses.width_m), lift],
-        reach_world,
-        chain.q0,
-        "reach and grasp",
-    )
+    before = chain.world(g.max_width_m, obstacle=chain.target_points)  # the object is an obstacle until touched
+    q_pre = chain.goal_q(before, poses.T_pre, chain.q0, "pre-grasp pose")
+    to_pre = chain.free(Planner(before, chain.limits), chain.q0, q_pre, "path to the pre-grasp pose")
+    approach = chain.approved([to_pre, GripperAction("open", OPEN_S, open_w)], before, chain.q0, "approach")
 
-    carry_world = chain.world(poses.width_m, poses.held)
+    touching = chain.world(g.max_width_m)
+    planner = Planner(touching, chain.limits)
+    down = chain.line(planner, q_pre, poses.T_contact, "approach to the grasp")
+    lift = chain.line(planner, down[-1], lifted(poses.T_contact, LIFT_M), "lift after the grasp")
+    grasp = chain.approved([down, GripperAction("close", CLOSE_S, poses.width_m), lift], touching, q_pre, "grasp")
+
+    carry_world = chain.world(poses.width_m, held=poses.held)
     carry_planner = Planner(carry_world, chain.limits)
     T_place = lifted(poses.T_goal, PLACE_CLEARANCE_M + chain.safety.padding_m)
-    T_above = lifted(T_place, LIFT_M)
-    q_above = chain.goal_q(carry_world, T_above, lift[-1], "pose above the place")
+    q_above = chain.goal_q(carry_world, lifted(T_place, LIFT_M), lift[-1], "pose above the place")
     to_above = chain.free(carry_planner, lift[-1], q_above, "carry path")
-    down = chain.line(carry_planner, q_above, T_place, "descent to the place pose")
+    place = chain.line(carry_planner, q_above, T_place, "descent to the place pose")
     release = GripperAction("open", OPEN_S, g.max_width_m)
-    carry = chain.approved([to_above, down, release], carry_world, lift[-1], "carry")
+    carry = chain.approved([to_above, place, release], carry_world, lift[-1], "carry")
 
-    leave_world = chain.world(g.max_width_m)
-    leave_planner = Planner(leave_world, chain.limits)
-    up = chain.line(leave_planner, down[-1], lifted(T_place, LIFT_M), "retreat")
-    home = chain.free(leave_planner, up[-1], chain.home, "path home")
-    leave = chain.approved([up, home], leave_world, down[-1], "retreat")
+    released = chain.world(g.max_width_m)
+    up = chain.line(Planner(released, chain.limits), place[-1], lifted(T_place, LIFT_M), "retreat")
+    retreat = chain.approved([up], released, place[-1], "retreat")
+    home = _home(chain, poses, g.max_width_m, up[-1])
+    phases = (approach, grasp, carry, retreat, home)
     waypoints = {"pre-grasp": poses.T_pre, "grasp": poses.T_contact, "place": T_place}
-    return ManipulationPlan((reach, carry, leave), ("reach", "carry", "leave"), poses, waypoints)
+    return ManipulationPlan(phases, ("approach", "grasp", "carry", "retreat", "home"), poses, waypoints)
 
 
 def plan_push(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     g = chain.robot.spec.gripper
-    world = chain.world(g.min_width_m)
-    planner = Planner(world, chain.limits)
-    q_pre = chain.goal_q(world, poses.T_pre, chain.q0, "pre-push pose")
-    to_pre = chain.free(planner, chain.q0, q_pre, "path to the pre-push pose")
-    approach = chain.line(planner, q_pre, poses.T_contact, "approach to the push")
-    push = chain.line(planner, approach[-1], poses.T_goal, "push")
+    before = chain.world(g.max_width_m, obstacle=chain.target_points)
+    q_pre = chain.goal_q(before, poses.T_pre, chain.q0, "pre-push pose")
+    to_pre = chain.free(Planner(before, chain.limits), chain.q0, q_pre, "path to the pre-push pose")
+    approach = chain.approved([to_pre, GripperAction("close", CLOSE_S, g.min_width_m)], before, chain.q0, "approach")
+
+    touching = chain.world(g.min_width_m)
+    planner = Planner(touching, chain.limits)
+    contact = chain.line(planner, q_pre, poses.T_contact, "approach to the push")
+    push = chain.line(planner, contact[-1], poses.T_goal, "push")
     back = chain.line(planner, push[-1], lifted(poses.T_goal, LIFT_M), "retreat after the push")
-    home = chain.free(planner, back[-1], chain.home, "path home")
-    steps = [to_pre, GripperAction("close", CLOSE_S, g.min_width_m), approach, push, back, home]
-    phase = chain.approved(steps, world, chain.q0, "push")
+    pushing = chain.approved([contact, push, back], touching, q_pre, "push")
+    home = _home(chain, poses, g.min_width_m, back[-1])
     waypoints = {"pre-push": poses.T_pre, "contact": poses.T_contact, "push end": poses.T_goal}
-    return ManipulationPlan((phase,), ("push",), poses, waypoints)
+    return ManipulationPlan((approach, pushing, home), ("approach", "push", "home"), poses, waypoints)
+
+
+def _home(chain: Chain, poses: ContactPoses, width_m: float, q_start: np.ndarray) -> ApprovedTrajectory:
+    """Back to the home posture, with the object where it now is (moved like the contact pose) as an obstacle."""
+    T_motion = poses.T_goal @ np.linalg.inv(poses.T_contact)
+    world = chain.world(width_m, obstacle=transform_points(T_motion, chain.target_points))
+    path = chain.free(Planner(world, chain.limits), q_start, chain.home, "path home")
+    return chain.approved([path], world, q_start, "home")
 
 
 def plan_manipulation(chain: Chain, poses: ContactPoses) -> ManipulationPlan:

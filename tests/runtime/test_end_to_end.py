@@ -47,7 +47,7 @@ def test_put_the_red_block_on_the_plate(sim_config_path, tmp_path):
     assert result.status == State.DONE, result.reason
     assert summary["verification"]["ok"] and summary["verification"]["position_error_m"] < 0.03
     assert np.linalg.norm(block[:2] - plate[:2]) < 0.06  # ground truth: the block sits on the plate
-    assert summary["plan"]["mode"] == "grasp" and [e["status"] for e in summary["execution"]] == ["completed"] * 3
+    assert summary["plan"]["mode"] == "grasp" and [e["status"] for e in summary["execution"]] == ["completed"] * 5
     for name in ("capture", "goal", "overlay", "masks", "plan", "after"):
         assert (tmp_path / "run" / f"{name}.png").exists(), name
 

@@ -57,7 +57,7 @@ def test_pick_and_place_moves_the_block(scene):
     before = dev.world.object_pose("red_block")[:3, 3]
     shift = np.array([0.0, 0.15, 0.0])
     plan = plan_manipulation(Chain(ctx), grasp_poses(dev, shift))
-    assert plan.phase_names == ("reach", "carry", "leave")
+    assert plan.phase_names == ("approach", "grasp", "carry", "retreat", "home")
     assert all(p.report.ok for p in plan.phases)  # each phase passed the gate in its own world
     assert max(plan.peak_joint_speed_rad_s) <= ctx.profile.safety.max_joint_velocity_rad_s + 1e-6
     executor = Executor(
@@ -67,8 +67,8 @@ def test_pick_and_place_moves_the_block(scene):
         dev.gripper,
     )
     reports = [executor.execute(p) for p in plan.phases]
-    assert [r.status for r in reports] == ["completed"] * 3
-    assert [g.grasped for g in reports[0].gripper if g.event.kind == "close"] == [True]
+    assert [r.status for r in reports] == ["completed"] * 5
+    assert [g.grasped for g in reports[1].gripper if g.event.kind == "close"] == [True]
     moved = dev.world.object_pose("red_block")[:3, 3] - before
     assert np.linalg.norm(moved - shift) < 0.02, moved
 
