@@ -1,5 +1,5 @@
 """`goalvla run`: open the devices, start the runtime node, run one instruction (or serve the console's) and
-map the outcome to the exit code: 0 verified success, 1 failed, 3 e-stopped."""
+map the outcome to the exit code: 0 verified success, 1 failed, 3 e-stopped, 2 not startable (missing API keys)."""
 
 from __future__ import annotations
 
@@ -38,6 +38,12 @@ def run_command(profile: Profile, instruction: str | None, yes: bool, record: Pa
         answer = console.input(f"\n[bold]{describe_plan(plan)}[/bold]\nExecute this plan? [y/N] ")
         return answer.strip().lower() in ("y", "yes")
 
+    from pipeline.reasoning.factory import preflight
+
+    problems = preflight(profile.pipeline)
+    if problems:  # before any device moves: a missing key must not surface in the middle of a run
+        console.print("[red]cannot start:[/red]\n  " + "\n  ".join(problems))
+        return 2
     with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm, prompt) as rt:
         cfg = profile.runtime
         console.print(

@@ -70,7 +70,10 @@ class PipelineStages:
         ReasoningError = require("reasoning", "pipeline.reasoning.types", "ReasoningError")
         synthesize = require("reasoning", "pipeline.reasoning.reasoner", "synthesize")
         if self._reasoner is None:
-            self._reasoner = build_reasoner(ctx.profile.pipeline)
+            try:
+                self._reasoner = build_reasoner(ctx.profile.pipeline)
+            except RuntimeError as e:  # missing API keys, unusable model settings: the message names them
+                raise StageError(str(e)) from None
         try:
             goal = self._reasoner.run(ctx.frame0, ctx.instruction, record_dir=str(ctx.record.dir / "reasoning"))
         except ReasoningError as e:

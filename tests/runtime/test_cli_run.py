@@ -37,3 +37,11 @@ def test_a_run_writes_its_record_and_exits_by_status(sim_config_path, tmp_path):
     assert summary["seed"] == 4 and summary["instruction"] == "put the red block on the white plate"
     assert result.exit_code == EXIT_CODES[State(summary["status"])], (result.output, summary["reason"])
     assert (tmp_path / "run" / "report.html").exists() and (tmp_path / "run" / "capture.png").exists()
+
+
+def test_missing_api_key_stops_before_any_device_opens(sim_config_path, tmp_path, monkeypatch):
+    monkeypatch.delenv("GEMINI_API_KEY", raising=False)
+    profile = tmp_path / "p.yaml"
+    profile.write_text(f"include: {sim_config_path}\npipeline: {{editor: gemini}}\n")
+    result = runner.invoke(app, ["run", "--config", str(profile), "--instruction", "x", "--yes"])
+    assert result.exit_code == 2 and "GEMINI_API_KEY" in result.output
