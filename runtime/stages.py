@@ -22,6 +22,7 @@ from runtime.verify import compare, object_centre, rotation_deg
 log = logging.getLogger(__name__)
 
 MAX_CONTACTS = 3  # ranked contact decisions tried before planning gives up
+PLAN_ATTEMPTS = 2  # planning attempts per contact (OMPL is randomised)
 
 
 def require(stage: str, module: str, *names: str) -> Any:
@@ -129,12 +130,14 @@ class PipelineStages:
         return candidates(ctx, chain)
 
     def plan(self, ctx: RunContext) -> PlanSummary:
-        """The best-ranked contact whose whole manipulation plans and passes the gate (up to MAX_CONTACTS)."""
+        """The best-ranked contact whose whole manipulation plans and passes the gate (up to MAX_CONTACTS, each
+        PLAN_ATTEMPTS times)."""
         Chain, plan_manipulation = require("planning", "runtime.manipulation", "Chain", "plan_manipulation")
         draw_tcp_poses = require("planning", "runtime.overlay", "draw_tcp_poses")
         chain = Chain(ctx)
         refusals = []
-        for poses in self.contact_candidates(ctx, chain)[:MAX_CONTACTS]:
+        attempts = [p for p in self.contact_candidates(ctx, chain)[:MAX_CONTACTS] for _ in range(PLAN_ATTEMPTS)]
+        for poses in attempts:  # the sampling planner may find a better path on a second try
             try:
                 plan = plan_manipulation(chain, poses)
                 break

@@ -33,11 +33,9 @@ playwright = pytest.importorskip("playwright.sync_api", reason="pip install play
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(shutil.which("chromium") is None, reason="apt-get install chromium")]
 
 
-def make_rig(sim_config_path, stages):
-    profile = load_profile(
-        sim_config_path,
-        {"runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": "console_test"}},
-    )
+def make_rig(sim_config_path, stages, runs_dir):
+    runtime = {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": "console_test", "runs_dir": runs_dir}
+    profile = load_profile(sim_config_path, {"runtime": runtime})
     stop = threading.Event()
     with open_devices(profile) as devices:
         rt = Runtime(profile, devices, stages, confirm="console")
@@ -53,13 +51,13 @@ def make_rig(sim_config_path, stages):
 
 
 @pytest.fixture
-def rig(sim_config_path):
-    yield from make_rig(sim_config_path, ScriptedStages())
+def rig(sim_config_path, tmp_path):
+    yield from make_rig(sim_config_path, ScriptedStages(), str(tmp_path))
 
 
 @pytest.fixture
-def real_rig(sim_config_path):
-    yield from make_rig(sim_config_path, GroundTruthGraspStages())
+def real_rig(sim_config_path, tmp_path):
+    yield from make_rig(sim_config_path, GroundTruthGraspStages(), str(tmp_path))
 
 
 def serve_in_thread(rt, stop):
