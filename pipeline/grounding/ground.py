@@ -13,10 +13,10 @@ from scipy.spatial import cKDTree
 
 from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
 from pipeline.grounding.hypotheses import sweep_hypotheses
-from pipeline.grounding.matching import match_pixels, pairwise_consistency
+from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.select import select_motion
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
-from pipeline.grounding.umeyama import ransac_similarity
+from pipeline.grounding.umeyama import Similarity, ransac_similarity
 from pipeline.grounding.verify import chromaticity, make_view
 from pipeline.perception.features import FeatureExtractor
 
@@ -75,37 +75,14 @@ def ground(
     size = object_size(cloud0)
     common["object_size_m"] = size
     common["matches"] = len(m.src_px)
-    if len(m.src_px) < cfg.min_inliers:
-        return refuse(f"too few feature matches: {len(m.src_px)} (need {cfg.min_inliers})", **common)
-    P = points0[m.src_px[:, 1], m.src_px[:, 0]]
-    Q = points1[m.dst_px[:, 1], m.dst_px[:, 0]]
-    if len(P) > MAX_CONSISTENCY_MATCHES:
-        keep = rng.choice(len(P), MAX_CONSISTENCY_MATCHES, replace=False)
-        P, Q = P[keep], Q[keep]
-    support = pairwise_consistency(P, Q, cfg.consistency_rel * size, cfg.scale_range)
-    keep = support >= cfg.min_consistency * support.max()
-    P, Q = P[keep], Q[keep]
     threshold = max(cfg.inlier_min_m, cfg.inlier_rel * size)
-    fits = ransac_similarity(
-        P,
-        Q,
-        threshold,
-        iterations=cfg.ransac_iterations,
-        min_sample_spread_m=0.1 * size,
-        scale_range=cfg.scale_range,
-        top_k=cfg.hypotheses,
-        seed=cfg.seed,
-    )
-    if not fits:
-        return refuse("registration found no non-degenerate hypothesis with a plausible scale", **common)
+    fits = _feature_hypotheses(points0, points1, m, size, threshold, cfg, rng)
     chroma0, chroma1 = chromaticity(inp.rgb0), chromaticity(inp.rgb1)
     voxel = max(cfg.icp_voxel_m, size / 40)
     view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
     view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel)
     up = _up_direction(points0[background & np.isfinite(depth0)], T_base_camera, rng)
-    lo, hi = cfg.scale_range
-    plausible = [f.transform for f in fits if lo <= f.transform.scale <= hi]  # refits can drift out of range
-    candidates = plausible + sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
+    candidates = fits + sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
     view_score, sim = select_motion(candidates, view0, view1, K, size, cfg)
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
@@ -125,6 +102,7 @@ def ground(
             f"object size {size * 1000:.0f} mm)",
             **common,
         )
+    lo, hi = cfg.scale_range
     if not lo <= sim.scale <= hi:
         return refuse(
             f"implausible scale {sim.scale:.3f} between goal and initial object (allowed {lo}-{hi})", **common
@@ -156,6 +134,41 @@ def ground(
         details={"depth_alignment": align.__dict__, "view_score": view_score, "threshold_m": threshold},
         **common,
     )
+
+
+def _feature_hypotheses(
+    points0: np.ndarray,
+    points1: np.ndarray,
+    m: Matches,
+    size: float,
+    threshold: float,
+    cfg: GroundingConfig,
+    rng: np.random.Generator,
+) -> list[Similarity]:
+    """Similarity hypotheses from the feature matches: distance-consistent matches, then RANSAC. Empty when the
+    features give too little (uniform objects, weak backends): the geometric sweep then carries the search and
+    the view check decides whether to refuse."""
+    if len(m.src_px) < cfg.min_inliers:
+        return []
+    P = points0[m.src_px[:, 1], m.src_px[:, 0]]
+    Q = points1[m.dst_px[:, 1], m.dst_px[:, 0]]
+    if len(P) > MAX_CONSISTENCY_MATCHES:
+        keep = rng.choice(len(P), MAX_CONSISTENCY_MATCHES, replace=False)
+        P, Q = P[keep], Q[keep]
+    support = pairwise_consistency(P, Q, cfg.consistency_rel * size, cfg.scale_range)
+    keep = support >= cfg.min_consistency * support.max()
+    fits = ransac_similarity(
+        P[keep],
+        Q[keep],
+        threshold,
+        iterations=cfg.ransac_iterations,
+        min_sample_spread_m=0.1 * size,
+        scale_range=cfg.scale_range,
+        top_k=cfg.hypotheses,
+        seed=cfg.seed,
+    )
+    lo, hi = cfg.scale_range
+    return [f.transform for f in fits if lo <= f.transform.scale <= hi]  # refits can drift out of range
 
 
 def _up_direction(background: np.ndarray, T_base_camera: np.ndarray | None, rng: np.random.Generator) -> np.ndarray:

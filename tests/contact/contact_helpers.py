@@ -4,19 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from safety.geometry import transform_points
-from safety.pointcloud import cloud_from_frame
+from pipeline.contact.clouds import target_and_scene
 
 
 def clouds(world, camera, robot, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(target points, scene points without the target, camera position), base frame, from one capture."""
     frame = camera.read().with_extrinsics(camera.T_base_camera)
-    mask = camera.object_masks()[name]
-    pts = frame.intrinsics.unproject_depth_image(frame.depth)[mask]
-    pts = transform_points(frame.T_base_camera, pts[np.all(np.isfinite(pts), axis=1)])
     q = world.data.qpos[world.arm_qpos].copy()
-    scene = cloud_from_frame(frame, robot, q, exclude_mask=mask, voxel_m=0.005)
-    return pts, scene, frame.T_base_camera[:3, 3]
+    target, scene = target_and_scene(frame, camera.object_masks()[name], robot, q)
+    return target, scene, frame.T_base_camera[:3, 3]
 
 
 def move(world, arm, q_target: np.ndarray, seconds: float) -> None:
