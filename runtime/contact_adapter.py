@@ -16,6 +16,7 @@ from runtime.stages import require
 from safety.geometry import Primitive, transform_points
 
 PUSH_ACTIONS = ("push", "close")
+TABLE_MARGIN_M = 0.002
 
 
 def contact_mode(instruction: str) -> str:
@@ -38,6 +39,16 @@ def held_box(points_base: np.ndarray, T_base_tcp: np.ndarray, tcp_link: str, nam
     return Primitive(f"held:{name}", tcp_link, "box", (2 * half_xy[0], 2 * half_xy[1], z1 - z0), T)
 
 
+def lowest_safe_tcp_height(ctx: RunContext, chain: Chain) -> float:
+    """The TCP height (pointing down) at which the fingers, grown by the gate's padding, just clear the table: lower
+    contacts would only be refused by the gate later."""
+    GripperBoxes = require("contact", "pipeline.contact.gripper", "GripperBoxes")
+    T_down = np.diag([1.0, -1.0, -1.0, 1.0])  # TCP at the table top, approach axis pointing down
+    g = chain.robot.spec.gripper
+    lowest = GripperBoxes(chain.robot, ctx.profile.safety.padding_m).lowest_z(T_down, g.min_width_m)
+    return -lowest + TABLE_MARGIN_M
+
+
 def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
     """Ranked ContactPoses; StageError with pipeline.contact's rejection counts when there is none."""
     plan_contacts = require("contact", "pipeline.contact.planner", "plan_contacts")
@@ -45,6 +56,9 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
     mode = contact_mode(ctx.instruction)
     points = chain.target_points
     config = getattr(ctx.profile.pipeline, "contact", None) or ContactConfig()
+    config = config.model_copy(
+        update={"min_tcp_height_m": max(config.min_tcp_height_m, lowest_safe_tcp_height(ctx, chain))}
+    )
     result = plan_contacts(
         points,
         chain.points,
@@ -53,7 +67,7 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
         mode=mode,
         config=config,
         q_seed=chain.q0,
-        collision_world=chain.world(chain.robot.spec.gripper.max_width_m),
+        collision_world=None,  # the gate judges collisions on the whole plan (placement is lifted by a clearance)
         viewpoint=ctx.frame0.T_base_camera[:3, 3],
     )
     ctx.record.note(

@@ -60,3 +60,14 @@ def test_without_contact_the_run_fails_at_planning_saying_so(sim_config_path, tm
     assert result.status == State.FAILED
     assert result.reason.startswith("plan: pipeline.contact.planner is not available") and "cannot run" in result.reason
 
+
+@pytest.mark.skipif(not HAS_CONTACT, reason="pipeline.contact is not part of this build")
+def test_goalvla_run_with_every_real_stage(sim_config_path, tmp_path):
+    profile = _profile(sim_config_path, seed=0)
+    with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm="yes") as rt:
+        result = rt.run("put the red block on the white plate", tmp_path / "run")
+        plate = devices.world.object_pose("white_plate")[:3, 3]
+        block = devices.world.object_pose("red_block")[:3, 3]
+    assert result.status == State.DONE, result.reason
+    assert result.summary["contact_used"].startswith("pipeline.contact #")
+    assert np.linalg.norm(block[:2] - plate[:2]) < 0.06
