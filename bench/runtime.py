@@ -155,9 +155,15 @@ def runs(count: int, out_dir: Path, contact: str) -> dict:
         if r["status"] != "DONE":
             key = r["reason"].split(":", 1)[0] if r["status"] == "FAILED" else r["status"]
             ended_at[key] = ended_at.get(key, 0) + 1
+    by_scene: dict[str, list[int]] = {}
+    for r in results:
+        done_total = by_scene.setdefault(r["scene"], [0, 0])
+        done_total[0] += r["status"] == "DONE"
+        done_total[1] += 1
     return {
         "count": count,
         "contact": contact,
+        "success_by_scene": {scene: f"{d}/{n}" for scene, (d, n) in by_scene.items()},
         "failures_by_stage": ended_at,
         "skipped_scenes": skipped,
         "success_rate": sum(r["status"] == "DONE" for r in results) / max(1, len(results)),
@@ -215,6 +221,8 @@ def main() -> None:
         "<= 30 s",
         str(result["met"]["run_wall_s_median"]),
     )
+    for scene, rate in run_stats["success_by_scene"].items():
+        table.add_row(f"  verified on {scene}", rate, "", "")
     for stage, n in run_stats["failures_by_stage"].items():
         table.add_row(f"  ended at {stage}", str(n), "", "")
     if run_stats["skipped_scenes"]:
