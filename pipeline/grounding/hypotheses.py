@@ -18,6 +18,8 @@ from pipeline.grounding.verify import View
 
 MAX_POINTS = 200  # per cloud: a coarse check needs the shape, not every point
 CHROMA_SIGMA = 0.08
+SILHOUETTE_SIGMA_REL = 0.1  # soft-silhouette width / object size
+DEPTH_TOL_REL = 0.15  # depth agreement width / object size
 
 
 def rotation_sweep(
@@ -102,10 +104,10 @@ def sweep_hypotheses(
 ) -> list[Similarity]:
     """The `keep` best rotations of the sweep; tolerances scale with the object (the centroids of two partial
     views can differ by a good part of its size)."""
-    sigma_px = 0.1 * size_m * K.fx / float(np.median(view0.cloud[:, 2]))
+    sigma_px = SILHOUETTE_SIGMA_REL * size_m * K.fx / float(np.median(view0.cloud[:, 2]))
     closeness0 = mask_closeness(view0.mask, sigma_px)
     closeness1 = mask_closeness(view1.mask, sigma_px)
     rotations = rotation_sweep(up)
-    scores, t = coarse_scores(rotations, view0, view1, closeness0, closeness1, K, 0.15 * size_m)
+    scores, t = coarse_scores(rotations, view0, view1, closeness0, closeness1, K, DEPTH_TOL_REL * size_m)
     best = np.argsort(-scores)[:keep]
     return [Similarity(1.0, rotations[k], t[k]) for k in best]
