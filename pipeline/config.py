@@ -11,6 +11,7 @@ from typing import Literal
 from pydantic import Field
 
 from drivers.config import StrictModel
+from pipeline.contact.types import ContactConfig
 from pipeline.grounding.types import GroundingConfig
 
 
@@ -92,4 +93,5 @@ class PipelineConfig(StrictModel):
     depth_anything: DepthAnythingConfig = DepthAnythingConfig()
     dinov2: Dinov2Config = Dinov2Config()
     grounding: GroundingConfig = GroundingConfig()
+    contact: ContactConfig = ContactConfig()
     checks: ChecksConfig = ChecksConfig()
