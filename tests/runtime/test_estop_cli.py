@@ -31,7 +31,7 @@ def test_terminal_node_beats_and_stops(runtime_cfg, tmp_path, sim_config_path):
         try:
             assert wait_for(lambda: len(beats) > 25, 20)  # ~1 s of heartbeats once connected
             recent = [t for t in beats if t > beats[-1] - 1.0]
-            assert 15 <= len(recent) <= 25, f"{len(recent)} heartbeats in the last second"
+            assert 12 <= len(recent) <= 25, f"{len(recent)} heartbeats in the last second"
             assert alive and alive[-1] is True
             proc.stdin.write("x")
             proc.stdin.flush()

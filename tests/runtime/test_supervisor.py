@@ -61,7 +61,7 @@ def test_frozen_node_trips_the_deadman_during_execution(rig):
     t0 = time.monotonic()
     node.paused.set()
     assert wait_for(lambda: machine.state == State.ESTOPPED, 2.0)
-    assert time.monotonic() - t0 < 0.2 + 0.1  # deadman 0.2 s, watch at 200 Hz
+    assert time.monotonic() - t0 < 0.2 + 0.2  # deadman 0.2 s, watch at 200 Hz (slack for a loaded machine)
     assert "deadman" in machine.reason and arm.stopped.is_set()
 
 
