@@ -56,8 +56,13 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
     mode = contact_mode(ctx.instruction)
     points = chain.target_points
     config = getattr(ctx.profile.pipeline, "contact", None) or ContactConfig()
+    # propose only contacts the gate can pass: the gripper grown by the gate's padding clears table and scene
+    padding = ctx.profile.safety.padding_m
     config = config.model_copy(
-        update={"min_tcp_height_m": max(config.min_tcp_height_m, lowest_safe_tcp_height(ctx, chain))}
+        update={
+            "min_tcp_height_m": max(config.min_tcp_height_m, lowest_safe_tcp_height(ctx, chain)),
+            "collision_padding_m": max(config.collision_padding_m, padding),
+        }
     )
     result = plan_contacts(
         points,
