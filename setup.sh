@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")"
 
 # libusb: open3d and the Orbbec SDK; EGL + Mesa or OSMesa: headless MuJoCo rendering; chromium: console tests.
-APT_PACKAGES=(libusb-1.0-0 libegl1 libgl1-mesa-dri libosmesa6)
+APT_PACKAGES=(libusb-1.0-0 libegl1 libgl1-mesa-dri libosmesa6 chromium)
 missing=()
 for pkg in "${APT_PACKAGES[@]}"; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
