@@ -165,7 +165,7 @@ def _resolve_paths(data: dict, origin: dict[KeyPath, Path], default: Path) -> No
             continue
         value = Path(node[key_path[-1]]).expanduser()
         if not value.is_absolute():
-            value = _origin_of(key_path, origin, default).parent / value
+            value = (_origin_of(key_path, origin, default).parent / value).resolve()
         node[key_path[-1]] = str(value)
 
 
