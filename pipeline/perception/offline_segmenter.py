@@ -2,9 +2,13 @@
 
 Works on the RGB image alone (never on simulator ground truth). A phrase names an object by colour and/or shape
 words ("the red block", "the plate"). Colour picks pixels; connected components are instances; shape words rank
-and filter them by silhouette cues (elongation, fill, aspect). Limits, by design of a no-model backend: brown is
-not separable from the wooden table, components touching the image border are ignored (the floor, the robot
-base), and white/gray/black objects compete with the white and gray robot links (shape words disambiguate).
+and filter them by silhouette cues (elongation, fill, aspect). Dark and gray objects (a pan, a black scale with a
+white weighing plate) are not one colour under the lights: their faces range from black to white, but all are
+unsaturated, unlike the wooden table. So for gray and black the instance is the unsaturated component that holds
+enough pixels of that colour, with its holes filled (a pan's rim encloses its floor and whatever lies on it).
+Limits, by design of a no-model backend: brown is not separable from the wooden table, components touching the
+image border are ignored (the floor, the robot base), and white/gray/black objects compete with the white and
+gray robot links (shape words disambiguate).
 """
 
 from __future__ import annotations
@@ -32,9 +36,12 @@ HUE_TOLERANCE_DEG = 14.0
 # max saturation, value range
 ACHROMATIC: dict[str, tuple[float, float, float]] = {
     "white": (0.12, 0.80, 1.01),
-    "gray": (0.12, 0.25, 0.65),
+    "gray": (0.12, 0.25, 0.78),
     "black": (1.0, 0.0, 0.10),
 }
+# gray/black instances: unsaturated components (max saturation) holding at least this fraction of the colour
+UNSATURATED_MAX_S = 0.15
+DARK_MIN_FRACTION = 0.1
 COLOUR_WORDS: dict[str, str] = {c: c for c in (*CHROMATIC, *ACHROMATIC)} | {"grey": "gray", "violet": "purple"}
 SHAPE_WORDS: dict[str, str] = {
     "block": "box",
@@ -94,6 +101,32 @@ def colour_mask(rgb: np.ndarray, colour: str) -> np.ndarray:
     return (sat <= max_s) & (val >= v0) & (val < v1)
 
 
+def fill_holes(mask: np.ndarray) -> np.ndarray:
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    filled = np.zeros(mask.shape, np.uint8)
+    cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
+    return filled.astype(bool) | mask
+
+
+def unsaturated_mask(rgb: np.ndarray) -> np.ndarray:
+    return cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV_FULL)[..., 1] <= UNSATURATED_MAX_S * 255.0
+
+
+def _round_body(mask: np.ndarray) -> float:
+    """A pan seen from any side: opening with a disc a quarter of its size removes the handle; what remains must
+    fill its bounding box like an ellipse (pi/4) and keep most, but not all, of the area (a ball or a block has no
+    handle to lose; a pan whose handle is hidden is missed, by design)."""
+    k = max(3, int(0.25 * np.sqrt(mask.sum())))
+    body = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+    if not body.any():
+        return 0.0
+    _, _, bw, bh = cv2.boundingRect(body)
+    fill = body.sum() / float(bw * bh)
+    kept = body.sum() / float(mask.sum())
+    elliptic = np.clip(1.0 - abs(fill - np.pi / 4) / 0.12, 0.0, 1.0)
+    return float(elliptic * np.clip(min(kept - 0.5, 0.95 - kept) / 0.03, 0.0, 1.0))
+
+
 def _shape_score(mask: np.ndarray, shape: str | None) -> float:
     """How well a silhouette fits a shape class, in [0, 1]; coarse on purpose (views are oblique)."""
     if shape is None:
@@ -121,7 +154,7 @@ def _shape_score(mask: np.ndarray, shape: str | None) -> float:
         "sphere": near(elong, 1.0, 1.3) * near(fill, 0.65, 0.9),
         "plate": near(aspect, 1.2, 3.0) * near(solidity, 0.9, 1.0),
         "bowl": near(aspect, 1.1, 3.0) * near(solidity, 0.85, 1.0),
-        "pan": near(aspect, 1.1, 4.0) * near(solidity, 0.6, 0.97),
+        "pan": _round_body(mask) * near(solidity, 0.6, 0.97),
     }[shape]
     return float(score)
 
@@ -142,20 +175,27 @@ class OfflineSegmenter(Segmenter):
     def segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
         check_rgb(rgb, "offline segmenter")
         want = parse_phrase(phrase)
-        colours = [want.colour] if want.colour else [c for c in (*CHROMATIC, "white") if c != "orange"]
+        colours = [want.colour] if want.colour else [c for c in (*CHROMATIC, *ACHROMATIC) if c != "orange"]
         h, w = rgb.shape[:2]
         min_area = max(20, int(self.min_area_frac * h * w))
         kernel = np.ones((3, 3), np.uint8)
         bound = self.min_shape_score if want.colour else self.shape_only_score
         found: list[Detection] = []
         for colour in colours:
-            mask = cv2.morphologyEx(colour_mask(rgb, colour).astype(np.uint8), cv2.MORPH_OPEN, kernel)
+            dark = colour in ("gray", "black")
+            pixels = colour_mask(rgb, colour)
+            mask = unsaturated_mask(rgb) if dark else pixels
+            mask = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, kernel)
             n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
             for i in range(1, n):
                 x, y, bw, bh, area = stats[i]
                 if area < min_area or x == 0 or y == 0 or x + bw >= w or y + bh >= h:
                     continue
                 comp = labels == i
+                if dark:
+                    if pixels[comp].mean() < DARK_MIN_FRACTION:
+                        continue
+                    comp = fill_holes(comp)
                 score = _shape_score(comp, want.shape)
                 if score >= bound:
                     found.append(Detection(comp, score, box_of(comp), f"{colour} {want.shape or 'object'}"))

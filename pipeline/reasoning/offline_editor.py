@@ -38,6 +38,9 @@ from pipeline.reasoning.types import EditRequest, EditResult
 
 PLACE_GAP_M = 0.04  # free space between objects placed side by side
 MIN_VISIBLE_FRACTION = 0.3
+# an object whose lowest visible point is this close to the table rests on it: its underside is hidden (a ball's
+# lower half, a block's near edge in shadow), so its bottom is the table, not the lowest point seen
+RESTING_M = 0.03
 
 
 def _refuse(message: str) -> ProviderError:
@@ -111,7 +114,8 @@ class OfflineEditor(ImageEditor):
         right = plane.in_plane(np.array([1.0, 0.0, 0.0]))
         away = plane.in_plane(np.array([0.0, 0.0, 1.0]))
         eye, zero = np.eye(3), np.zeros(3)
-        bottom = max(float(np.percentile(fx.heights, 2)), 0.0)
+        bottom = float(np.percentile(fx.heights, 2))
+        bottom = 0.0 if bottom < RESTING_M else bottom
         if instr.action == "place":
             if instr.relation in ("on", "in"):
                 lift = support_height(fy, plane) - bottom + 0.002

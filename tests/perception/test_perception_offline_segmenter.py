@@ -50,3 +50,33 @@ def test_phrases_are_validated():
         parse_phrase("the")
     with pytest.raises(ValueError, match="uint8"):
         OfflineSegmenter().segment(np.zeros((10, 10)), "red block")
+
+
+def dark_scene() -> np.ndarray:
+    """A gray pan (shaded rim, lighter floor, handle) and a black scale with a white weighing plate on the table."""
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    cv2.ellipse(img, (50, 50), (26, 18), 0, 0, 360, (95, 95, 98), -1)  # dark outer rim
+    cv2.ellipse(img, (50, 50), (21, 14), 0, 0, 360, (165, 165, 170), -1)  # lit floor
+    cv2.rectangle(img, (48, 66), (53, 100), (110, 110, 112), -1)  # handle towards the camera
+    cv2.rectangle(img, (105, 40), (140, 70), (18, 18, 18), -1)  # black base
+    cv2.rectangle(img, (108, 42), (137, 64), (250, 250, 250), -1)  # white plate on top
+    return img
+
+
+def test_gray_pan_found_by_shape_alone_with_its_handle_and_floor():
+    img = dark_scene()
+    cv2.circle(img, (130, 100), 9, (200, 30, 25), -1)  # a red ball: round, but no handle
+    found = OfflineSegmenter().segment(img, "the pan")
+    assert len(found) == 1 and found[0].label == "gray pan"
+    pan = found[0].mask
+    assert pan[50, 50] and pan[90, 50] and not pan[50, 120]  # floor and handle included, scale excluded
+
+
+def test_black_scale_includes_its_white_plate_and_a_tomato_in_the_pan_stays_in_the_pan():
+    img = dark_scene()
+    scale = OfflineSegmenter().segment(img, "the black scale")
+    assert len(scale) == 1 and scale[0].box == (105, 40, 140, 70)
+    cv2.circle(img, (50, 50), 6, (200, 30, 25), -1)  # a tomato on the pan's floor
+    pan = OfflineSegmenter().segment(img, "the gray pan")
+    assert len(pan) == 1 and pan[0].mask[50, 50]  # holes filled: the content is inside the pan's region
+    assert OfflineSegmenter().segment(img, "the red ball")[0].area_px < 150
