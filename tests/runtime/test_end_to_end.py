@@ -2,13 +2,12 @@
 chain, the gate, the executor and verification, with the runtime's supervision and record around them.
 
 One run takes the contact decision from runtime.sim_oracle (a top-down grasp of the target at the simulator's
-pose of it), so that everything downstream (goal pose = grounded motion applied to the grasp, planning, gate,
-execution, verification by re-grounding) is tested even without pipeline.contact; another runs every real
-stage, pipeline.contact included."""
+pose of it), so that everything downstream of contact (goal pose = grounded motion applied to the grasp, planning,
+gate, execution, verification by re-grounding) is tested on its own; another runs every real stage, pipeline.contact
+included."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 
 import numpy as np
@@ -23,10 +22,6 @@ from runtime.stages import PipelineStages
 from runtime.states import State
 
 pytestmark = pytest.mark.slow
-pytest.importorskip("pipeline.grounding.ground", reason="the grounding stage is not part of this build")
-HAS_CONTACT = importlib.util.find_spec("pipeline.contact") is not None and (
-    importlib.util.find_spec("pipeline.contact.planner") is not None
-)
 
 
 def _profile(sim_config_path, seed: int):
@@ -52,16 +47,6 @@ def test_put_the_red_block_on_the_plate(sim_config_path, tmp_path):
         assert (tmp_path / "run" / f"{name}.png").exists(), name
 
 
-@pytest.mark.skipif(HAS_CONTACT, reason="pipeline.contact is available")
-def test_without_contact_the_run_fails_at_planning_saying_so(sim_config_path, tmp_path):
-    profile = _profile(sim_config_path, seed=0)
-    with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm="yes") as rt:
-        result = rt.run("put the red block on the white plate", tmp_path / "run")
-    assert result.status == State.FAILED
-    assert result.reason.startswith("plan: pipeline.contact.planner is not available") and "cannot run" in result.reason
-
-
-@pytest.mark.skipif(not HAS_CONTACT, reason="pipeline.contact is not part of this build")
 def test_goalvla_run_with_every_real_stage(sim_config_path, tmp_path):
     profile = _profile(sim_config_path, seed=0)
     with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm="yes") as rt:
