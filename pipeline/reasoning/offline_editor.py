@@ -86,7 +86,12 @@ class OfflineEditor(ImageEditor):
         self, rgb: np.ndarray, depth_m: np.ndarray, K: CameraIntrinsics, instr: Instruction
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if instr.action == "close":
-            raise _refuse("'close' moves an articulated part; composing it needs a generative editor")
+            raise _refuse(
+                "'close' turns an articulated part (a lid about its hinge) while the rest of the object stays; the "
+                "offline chain grounds one rigid motion of the whole named object and contact plans only grasps and "
+                "straight horizontal pushes, so it cannot carry out a hinged motion (that needs the part segmented, "
+                "its rotation about the hinge grounded and a push that follows the arc)"
+            )
         mask_x = _single(self.segmenter, rgb, instr.target)
         cloud = K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3)
         plane = fit_table_plane(cloud)
