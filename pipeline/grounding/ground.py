@@ -12,7 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
-from pipeline.grounding.hypotheses import sweep_hypotheses
+from pipeline.grounding.hypotheses import face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.select import select_motion
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
@@ -82,7 +82,8 @@ def ground(
     view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
     view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel)
     up = _up_direction(points0[background & np.isfinite(depth0)], T_base_camera, rng)
-    candidates = fits + sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
+    sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
+    candidates = fits + face_hypotheses(view0, view1) + sweep
     view_score, sim = select_motion(candidates, view0, view1, K, size, cfg)
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold

@@ -26,6 +26,7 @@ class OfflineFeatures:
         ring_radii_m: tuple[float, ...] = (0.01, 0.02),
         fpfh_radius_m: float = 0.02,
         normal_radius_m: float = 0.01,
+        fpfh_max_nn: int = 50,
         colour_weight: float = 1.0,
         ring_weight: float = 0.7,
         geometry_weight: float = 1.0,
@@ -34,6 +35,7 @@ class OfflineFeatures:
         self.ring_radii_m = ring_radii_m
         self.fpfh_radius_m = fpfh_radius_m
         self.normal_radius_m = normal_radius_m
+        self.fpfh_max_nn = fpfh_max_nn
         self.weights = (colour_weight, ring_weight, geometry_weight)
         self.focal_px = focal_px
 
@@ -82,7 +84,7 @@ class OfflineFeatures:
         pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=self.normal_radius_m, max_nn=30))
         pcd.orient_normals_towards_camera_location(np.zeros(3))
         f = o3d.pipelines.registration.compute_fpfh_feature(
-            pcd, o3d.geometry.KDTreeSearchParamHybrid(radius=self.fpfh_radius_m, max_nn=100)
+            pcd, o3d.geometry.KDTreeSearchParamHybrid(radius=self.fpfh_radius_m, max_nn=self.fpfh_max_nn)
         )
         _, nearest = cKDTree(support).query(query[ok])
         out[ok] = normalise_rows(np.asarray(f.data).T[nearest])
