@@ -33,6 +33,7 @@ from pipeline.reasoning.tabletop import (
     object_points,
     principal_axis,
     support_height,
+    wide_end,
 )
 from pipeline.reasoning.types import EditRequest, EditResult
 
@@ -141,11 +142,14 @@ class OfflineEditor(ImageEditor):
         if instr.action == "push":
             direction = {"left": -right, "right": right, "away": away, "toward": -away}[instr.direction]
             return eye, zero, direction * instr.distance_m
-        # stand up: turn the long axis vertical, keeping the visible side facing the camera
-        tilt_axis = np.cross(plane.n, principal_axis(fx, plane))
+        # stand up: turn the long axis vertical with the wider end (a bottle's base, not its neck) down; a body with
+        # equal ends keeps its visible side facing the camera. +90 deg about n x axis takes the +axis end down.
+        axis = principal_axis(fx, plane)
+        tilt_axis = np.cross(plane.n, axis)
         pivot = fx.points.mean(axis=0)
-        R = axis_rotation(tilt_axis, math.pi / 2)
-        if (R @ plane.n) @ -pivot < 0:
+        sign = wide_end(fx, plane, axis)
+        R = axis_rotation(tilt_axis, math.pi / 2 if sign >= 0 else -math.pi / 2)
+        if sign == 0 and (R @ plane.n) @ -pivot < 0:
             R = axis_rotation(tilt_axis, -math.pi / 2)
         lowest = plane.height((fx.points - pivot) @ R.T + pivot).min()
         return R, pivot, -lowest * plane.n

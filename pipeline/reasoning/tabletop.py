@@ -119,3 +119,21 @@ def principal_axis(fp: Footprint, plane: Plane) -> np.ndarray:
     q = plane.project(fp.points) - fp.centre
     _, _, vt = np.linalg.svd(q, full_matrices=False)
     return plane.in_plane(vt[0])
+
+
+def wide_end(fp: Footprint, plane: Plane, axis: np.ndarray, end_fraction: float = 0.2) -> float:
+    """+1 if the object's +axis end is wider than its -axis end (a bottle's base against its neck), -1 if
+    narrower, 0 if the two ends are within 15 % (a plain cylinder): width is the spread across the axis of the
+    points in the outer `end_fraction` of the length at each end."""
+    q = plane.project(fp.points) - fp.centre
+    s, w = q @ axis, q @ np.cross(plane.n, axis)
+    lo, hi = np.percentile(s, [1, 99])
+    cut = end_fraction * (hi - lo)
+
+    def spread(sel: np.ndarray) -> float:
+        return float(np.percentile(w[sel], 95) - np.percentile(w[sel], 5)) if sel.sum() >= 10 else 0.0
+
+    plus, minus = spread(s >= hi - cut), spread(s <= lo + cut)
+    if abs(plus - minus) < 0.15 * max(plus, minus, 1e-9):
+        return 0.0
+    return 1.0 if plus > minus else -1.0

@@ -149,6 +149,9 @@ def test_stand_up_turns_a_lying_bottle_upright(sim_profile_with, tmp_path):
     up_camera = world.T_world_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
     assert abs(np.degrees(np.arccos(np.clip(np.trace(R) / 2 - 0.5, -1, 1))) - 90.0) < 1e-6
     assert abs(up_camera @ R @ up_camera) < 1e-6  # tipped about a horizontal axis
+    R_base = world.T_world_camera[:3, :3] @ R @ world.T_world_camera[:3, :3].T
+    neck = world.object_pose("green_bottle")[:3, :3] @ np.array([1.0, 0.0, 0.0])  # the lying bottle's neck side
+    assert (R_base @ neck)[2] > 0.95  # stands on its base, neck up
     before, after = seg.segment(frame.rgb, "green bottle")[0], seg.segment(result.rgb, "green bottle")[0]
     (u0, v0, u1, v1), (a0, b0, a1, b1) = before.box, after.box
     assert (u1 - u0) > 2 * (v1 - v0)  # lying across the view
@@ -200,3 +203,19 @@ def test_editor_puts_the_ball_on_the_pan_floor(task_view):
     moved = T_motion_base[:3, :3] @ ball + T_motion_base[:3, 3]
     assert np.linalg.norm(moved[:2] - pan[:2]) < 0.02  # in the round body, not pulled towards the handle
     assert 0.004 < moved[2] - ball[2] < 0.016  # resting on the pan's 8 mm floor, not sunk into the table
+
+
+def test_wide_end_tells_a_bottle_base_from_its_neck_and_not_a_plain_cylinder():
+    from pipeline.reasoning.tabletop import Plane, footprint, wide_end
+
+    plane = Plane(np.array([0.0, 0.0, 1.0]), 0.0)  # table z = 0, points above it
+    rng = np.random.default_rng(0)
+    s = rng.uniform(-0.09, 0.09, 4000)  # along x
+    half_width = np.where(s > 0.036, 0.0135, 0.03)  # neck (30 % of the length) at +x
+    pts = np.stack([s, rng.uniform(-1, 1, len(s)) * half_width, np.full(len(s), 0.05)], axis=1)
+    axis = np.array([1.0, 0.0, 0.0])
+    assert wide_end(footprint(pts, plane), plane, axis) == -1.0
+    assert wide_end(footprint(pts * [-1, 1, 1], plane), plane, axis) == 1.0
+    plain = pts.copy()
+    plain[:, 1] = rng.uniform(-0.03, 0.03, len(s))
+    assert wide_end(footprint(plain, plane), plane, axis) == 0.0
