@@ -38,6 +38,9 @@ from pipeline.reasoning.tabletop import (
 from pipeline.reasoning.types import EditRequest, EditResult
 
 PLACE_GAP_M = 0.04  # free space between objects placed side by side
+# an object put on or in another is released this far above the support: clear of contact planning's 4 mm
+# placed-object check, so a measured millimetre of grounding error does not read as the object sinking into it
+RELEASE_ABOVE_M = 0.006
 MIN_VISIBLE_FRACTION = 0.3
 # an object whose lowest visible point is this close to the table rests on it: its underside is hidden (a ball's
 # lower half, a block's near edge in shadow), so its bottom is the table, not the lowest point seen
@@ -124,7 +127,7 @@ class OfflineEditor(ImageEditor):
         bottom = 0.0 if bottom < RESTING_M else bottom
         if instr.action == "place":
             if instr.relation in ("on", "in"):
-                lift = support_height(fy, plane) - bottom + 0.002
+                lift = support_height(fy, plane) - bottom + RELEASE_ABOVE_M
                 return eye, zero, fy.centre - fx.centre + lift * plane.n
             side = {
                 "left_of": -right,
