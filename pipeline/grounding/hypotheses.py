@@ -5,6 +5,11 @@ Objects on a table mostly turn about the table normal and sometimes tip over, so
 yaw(a) . tilt(theta) . yaw(b) about the normal, each with the translation that aligns the cloud centroids,
 covers the likely motions at a coarse step. A vectorised render-and-compare check (soft silhouette, depth and
 colour agreement at a coarse tolerance, both ways) keeps the few worth refining.
+
+A sweep step is too coarse for boxes: after a tilt, a near-cubic box turned 20-30 deg from the truth looks
+more like a wrong face than the right one. Box-like objects show two or three planar faces, so the frames of
+their two dominant perpendicular faces in the two views give the rotation up to how the axes map (24 cases)
+to within a degree or two, however far the object turned; a point-to-plane slide finds the shift.
 """
 
 from __future__ import annotations
@@ -20,14 +25,12 @@ MAX_POINTS = 120  # per cloud: a coarse check needs the shape, not every point
 CHROMA_SIGMA = 0.08
 SILHOUETTE_SIGMA_REL = 0.1  # soft-silhouette width / object size
 DEPTH_TOL_REL = 0.15  # depth agreement width / object size
-LOCAL_STEPS_DEG = ((10.0, 4), (4.0, 3))  # (step, most moves): climbs from the best sweep motions
-LOCAL_SEEDS = 10
+DISTINCT_PEAKS = 10  # sweep rotations at least SEED_SEPARATION_DEG apart, ranked first
 SEED_SEPARATION_DEG = 20.0
-AXES = np.concatenate([np.eye(3), -np.eye(3)])
 FACE_TOL_DEG = 12.0  # normals within this angle belong to one planar face
 MIN_FACE_POINTS = 5
 FACE_POINTS = 400  # normals looked at to find the faces
-SHIFT_ITERATIONS = 8
+SHIFT_ITERATIONS = 5
 
 
 def _signed_permutations() -> np.ndarray:
@@ -107,10 +110,9 @@ def coarse_scores(
     closeness1: np.ndarray,
     K: CameraIntrinsics,
     tol_m: float,
-    translations: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Score each motion (by default with the translation that aligns the cloud centroids), initial -> goal and
-    back. Returns scores (M,) in 0..1 and translations (M, 3)."""
+    """Score each rotation, with the translation that aligns the cloud centroids, initial -> goal and back.
+    Returns scores (M,) in 0..1 and translations (M, 3)."""
     s0, s1 = max(1, len(view0.cloud) // MAX_POINTS), max(1, len(view1.cloud) // MAX_POINTS)
     p0, n0, k0 = view0.cloud[::s0], view0.normals[::s0], view0.chroma[::s0]
     p1, n1, k1 = view1.cloud[::s1], view1.normals[::s1], view1.chroma[::s1]
@@ -118,7 +120,7 @@ def coarse_scores(
     rotations = rotations.astype(np.float32)
     Rt = rotations.transpose(0, 2, 1)  # batched matmul (BLAS) rather than einsum: the sweep's hot spot
     c0, c1 = view0.cloud.mean(axis=0), view1.cloud.mean(axis=0)
-    t = (c1 - c0 @ Rt if translations is None else np.asarray(translations)).astype(np.float32)
+    t = (c1 - c0 @ Rt).astype(np.float32)
     X = p0 @ Rt + t[:, None]
     fwd = _agreement(X, n0 @ Rt, k0, view1, closeness1, K, tol_m)
     Y = (p1[None] - t[:, None]) @ rotations
@@ -176,52 +178,18 @@ def face_hypotheses(view0: View, view1: View) -> list[Similarity]:
 def sweep_hypotheses(
     view0: View, view1: View, K: CameraIntrinsics, up: np.ndarray, keep: int, size_m: float
 ) -> list[Similarity]:
-    """The `keep` best rotations of the sweep; tolerances scale with the object (the centroids of two partial
-    views can differ by a good part of its size)."""
+    """The `keep` best rotations of the sweep, the best mutually distinct ones first (neighbours of one peak
+    would otherwise crowd out the other candidates); tolerances scale with the object (the centroids of two
+    partial views can differ by a good part of its size)."""
     sigma_px = SILHOUETTE_SIGMA_REL * size_m * K.fx / float(np.median(view0.cloud[:, 2]))
     closeness0 = mask_closeness(view0.mask, sigma_px)
     closeness1 = mask_closeness(view1.mask, sigma_px)
-    tol = DEPTH_TOL_REL * size_m
     rotations = rotation_sweep(up)
-    args = (view0, view1, closeness0, closeness1, K, tol)
-    scores, t = coarse_scores(rotations, *args)
+    scores, t = coarse_scores(rotations, view0, view1, closeness0, closeness1, K, DEPTH_TOL_REL * size_m)
     order = np.argsort(-scores)
-    seeds = _distinct(rotations[order], SEED_SEPARATION_DEG, LOCAL_SEEDS)
-    R, best_s, best_t = rotations[order][seeds], scores[order][seeds], t[order][seeds]
-    R, best_s, best_t = _climb(R, best_s, best_t, lambda R_, t_: coarse_scores(R_, *args, t_)[0], view0, size_m)
-    rest = [k for k in order[:keep] if k not in set(order[seeds])]
-    climbed = [Similarity(1.0, R[i], best_t[i]) for i in np.argsort(-best_s)]
-    return (climbed + [Similarity(1.0, rotations[k], t[k]) for k in rest])[:keep]
-
-
-def _climb(R, score, t, score_fn, view0: View, size_m: float):
-    """Hill-climb each seed motion (R (K,3,3), score (K,), t (K,3)): at each step size, the seeds still improving
-    try turns about their moved centroid and shifts along the camera axes, and move to the best that scores
-    better, until none improves or the step's moves run out."""
-    R, score, t = R.copy(), score.copy(), t.copy()
-    c0 = view0.cloud.mean(axis=0)
-    for step, moves in LOCAL_STEPS_DEG:
-        P = _perturbations(step)
-        active = np.arange(len(R))
-        for _ in range(moves):
-            if len(active) == 0:
-                break
-            Ra, ta = R[active], t[active]
-            turned = np.einsum("pij,kjl->kpil", P, Ra)
-            c = np.einsum("kij,j->ki", Ra, c0) + ta
-            t_turned = c[:, None] - np.einsum("kpij,j->kpi", turned, c0)
-            shifted = ta[:, None] + np.radians(step) * size_m * AXES[None]
-            cand_R = np.concatenate([turned, np.repeat(Ra[:, None], len(AXES), axis=1)], axis=1)
-            cand_t = np.concatenate([t_turned, shifted], axis=1)
-            n = cand_R.shape[1]
-            s = score_fn(cand_R.reshape(-1, 3, 3), cand_t.reshape(-1, 3)).reshape(len(active), n)
-            j = np.argmax(s, axis=1)
-            rows = np.arange(len(active))
-            better = s[rows, j] > score[active]
-            idx = active[better]
-            R[idx], score[idx], t[idx] = cand_R[rows, j][better], s[rows, j][better], cand_t[rows, j][better]
-            active = idx
-    return R, score, t
+    distinct = order[_distinct(rotations[order], SEED_SEPARATION_DEG, DISTINCT_PEAKS)]
+    ranked = list(distinct) + [k for k in order[:keep] if k not in set(distinct)]
+    return [Similarity(1.0, rotations[k], t[k]) for k in ranked[:keep]]
 
 
 def _distinct(rotations: np.ndarray, min_deg: float, count: int) -> list[int]:
@@ -234,15 +202,3 @@ def _distinct(rotations: np.ndarray, min_deg: float, count: int) -> list[int]:
             if len(taken) == count:
                 break
     return taken
-
-
-def _offsets() -> np.ndarray:
-    """(26, 3) the neighbours of the origin on the unit grid."""
-    g = np.array([-1.0, 0.0, 1.0])
-    o = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
-    return o[np.any(o != 0, axis=1)]
-
-
-def _perturbations(step_deg: float) -> np.ndarray:
-    """(26, 3, 3) small rotations: -step, 0, +step about each camera axis, identity left out."""
-    return Rotation.from_rotvec(np.radians(step_deg) * _offsets()).as_matrix()

@@ -29,7 +29,7 @@ class GroundingConfig(StrictModel):
     inlier_rel: float = Field(default=0.06, gt=0, description="RANSAC inlier threshold / object size")
     inlier_min_m: float = Field(default=0.004, gt=0)
     hypotheses: int = Field(default=6, ge=1, description="RANSAC hypotheses verified against the images")
-    sweep_hypotheses: int = Field(default=40, ge=0, description="geometric sweep hypotheses verified likewise")
+    sweep_hypotheses: int = Field(default=20, ge=0, description="geometric sweep hypotheses verified likewise")
     refine_top: int = Field(default=8, ge=1, description="hypotheses refined by ICP after a coarse view check")
     min_view_score: float = Field(default=0.4, ge=0, le=1, description="refuse below this view agreement")
     min_inliers: int = Field(default=8, ge=3)

@@ -41,13 +41,19 @@ class OfflineFeatures:
 
     def extract(self, rgb: np.ndarray, pixels: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
         pixels = np.asarray(pixels)
-        chroma = _chromaticity(rgb)
-        u = np.clip(np.round(pixels[:, 0]).astype(int), 0, rgb.shape[1] - 1)
-        v = np.clip(np.round(pixels[:, 1]).astype(int), 0, rgb.shape[0] - 1)
-        blocks = [self.weights[0] * normalise_rows(chroma[v, u])]
+        h, w, _ = rgb.shape
+        u = np.clip(np.round(pixels[:, 0]).astype(int), 0, w - 1)
+        v = np.clip(np.round(pixels[:, 1]).astype(int), 0, h - 1)
         z = points[v, u, 2] if points is not None else np.full(len(u), 1.0)
         z = np.where(np.isfinite(z) & (z > 0), z, np.nanmedian(z) if np.isfinite(z).any() else 1.0)
-        rings = [self._ring(chroma, u, v, r * self.focal_px / z) for r in self.ring_radii_m]
+        radii = [r * self.focal_px / z for r in self.ring_radii_m]
+        # colour only where it is read: the pixels' box grown by the widest ring (and the blur's pixel)
+        reach = int(np.ceil(max((r.max() for r in radii), default=0.0))) + 2
+        u0, v0 = max(int(u.min()) - reach, 0), max(int(v.min()) - reach, 0)
+        chroma = _chromaticity(rgb[v0 : int(v.max()) + reach + 1, u0 : int(u.max()) + reach + 1])
+        uc, vc = u - u0, v - v0
+        blocks = [self.weights[0] * normalise_rows(chroma[vc, uc])]
+        rings = [self._ring(chroma, uc, vc, r) for r in radii]
         if rings:
             blocks.append(self.weights[1] * normalise_rows(np.concatenate(rings, axis=1)))
         if points is not None and self.weights[2] > 0:
