@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -125,6 +126,7 @@ def main() -> None:
     pairs = make_pairs(n, args.seed)
     console.print(f"rendered {len(pairs)} pairs in {time.perf_counter() - t0:.1f} s")
     features = OfflineFeatures()
+    load_start = os.getloadavg()[0]
     records = []
     for i, (pair, lying) in enumerate(pairs):
         inp = GroundingInput(
@@ -180,6 +182,8 @@ def main() -> None:
             f"{s['ms_per_pair']:.0f}",
         )
     console.print(table)
+    load = {"start": load_start, "end": os.getloadavg()[0], "cpu_count": os.cpu_count()}
+    console.print(f"machine load (1 min average) {load['start']:.2f} -> {load['end']:.2f} on {load['cpu_count']} CPUs")
     console.print({k: ("met" if v else "NOT met") for k, v in met.items()})
     args.out.parent.mkdir(parents=True, exist_ok=True)
     result = {
@@ -189,6 +193,7 @@ def main() -> None:
         "measured": measured,
         "targets": TARGETS,
         "met": met,
+        "load_avg_1m": load,
         "records": records,
     }
     args.out.write_text(json.dumps(_finite(result), indent=1))
