@@ -15,7 +15,7 @@ import numpy as np
 from pipeline.perception.features import normalise_rows
 
 RING_SAMPLES = 8
-MAX_SUPPORT_POINTS = 6000
+MAX_SUPPORT_POINTS = 3000
 
 
 class OfflineFeatures:
