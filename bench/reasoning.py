@@ -134,16 +134,7 @@ def run_case(reasoner, features, frame, instruction: str) -> dict:
         return case
     case.update(accepted=goal.validated, reasoning_s=time.perf_counter() - t0, stages=goal.seconds)
     t0 = time.perf_counter()
-    inp = GroundingInput(
-        frame.rgb,
-        frame.depth,
-        goal.mask_init,
-        goal.rgb_goal,
-        goal.depth_goal.values,
-        goal.depth_goal.kind,
-        goal.mask_goal,
-        frame.intrinsics,
-    )
+    inp = GroundingInput.from_goal(frame, goal)
     motion = ground(inp, features)
     case["grounding_s"] = time.perf_counter() - t0
     case["grounded"] = motion.ok

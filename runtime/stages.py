@@ -105,16 +105,7 @@ class PipelineStages:
     def ground(self, ctx: RunContext) -> None:
         ground, GroundingInput = require("grounding", "pipeline.grounding.ground", "ground", "GroundingInput")
         goal, frame = ctx.goal, ctx.frame0
-        inp = GroundingInput(
-            frame.rgb,
-            frame.depth,
-            goal.mask_init,
-            goal.rgb_goal,
-            goal.depth_goal.values,
-            goal.depth_goal.kind,
-            goal.mask_goal,
-            frame.intrinsics,
-        )
+        inp = GroundingInput.from_goal(frame, goal)
         motion = ground(
             inp, self._features_backend(ctx), ctx.profile.pipeline.grounding, T_base_camera=frame.T_base_camera
         )

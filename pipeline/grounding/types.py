@@ -113,6 +113,21 @@ class GroundingInput:
     mask1: np.ndarray
     intrinsics: CameraIntrinsics
 
+    @classmethod
+    def from_goal(cls, frame, goal) -> GroundingInput:
+        """Stage 2's input from the capture (an RGBDFrame) and stage 1's GoalState (read by attribute, so the
+        grounding package does not depend on the reasoning package)."""
+        return cls(
+            frame.rgb,
+            frame.depth,
+            goal.mask_init,
+            goal.rgb_goal,
+            goal.depth_goal.values,
+            goal.depth_goal.kind,
+            goal.mask_goal,
+            frame.intrinsics,
+        )
+
     def __post_init__(self) -> None:
         h, w = self.intrinsics.height, self.intrinsics.width
         for key in ("rgb0", "rgb1"):

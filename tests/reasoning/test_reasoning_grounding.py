@@ -21,16 +21,7 @@ def test_grounding_recovers_the_composed_goal(sim_view, instruction):
     frame, _, _ = sim_view
     goal = build_reasoner(PipelineConfig()).run(frame, instruction)
     assert goal.validated
-    inp = GroundingInput(
-        frame.rgb,
-        frame.depth,
-        goal.mask_init,
-        goal.rgb_goal,
-        goal.depth_goal.values,
-        goal.depth_goal.kind,
-        goal.mask_goal,
-        frame.intrinsics,
-    )
+    inp = GroundingInput.from_goal(frame, goal)
     motion = ground(inp, make_feature_extractor("offline"))
     assert motion.ok, motion.reason
     points = frame.intrinsics.unproject_depth_image(frame.depth)[goal.mask_init]
