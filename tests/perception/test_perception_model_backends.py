@@ -50,11 +50,11 @@ def test_grounded_sam_masks_come_back_at_input_resolution(tiny_models, image):
 
 
 def test_grounded_sam_high_threshold_finds_nothing(tiny_models, image):
-    config = GroundedSamConfig(
-        detector_model=str(tiny_models["detector"]),
-        sam_model=str(tiny_models["sam"]),
-        box_threshold=0.999999,
-    )
+    models = {"detector_model": str(tiny_models["detector"]), "sam_model": str(tiny_models["sam"])}
+    low = GroundedSamConfig(**models, box_threshold=0.01, text_threshold=0.01)
+    top = max(d.score for d in GroundedSamSegmenter(low).segment(image, "red block"))
+    assert top < 1.0, "the random detector saturated; the threshold cannot sit above it"
+    config = GroundedSamConfig(**models, box_threshold=(top + 1.0) / 2)  # above every box the detector proposes
     assert GroundedSamSegmenter(config).segment(image, "red block") == []
     with pytest.raises(ValueError, match="uint8"):
         GroundedSamSegmenter(config).segment(image.astype(np.float32), "red block")
