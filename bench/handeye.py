@@ -30,7 +30,7 @@ from calibration.session import (  # noqa: E402
     nominal_geometry,
     plan_views,
 )
-from drivers.sim import SimArm, SimCamera, SimWorld  # noqa: E402
+from drivers.sim import SimArm, SimCamera, SimWorld, SteppedClock  # noqa: E402
 from motion.executor import ExecutorConfig  # noqa: E402
 from motion.limits import MotionLimits  # noqa: E402
 from runtime.calibrate import pose_error, sim_overrides  # noqa: E402
@@ -40,18 +40,6 @@ from safety.robot_model import RobotModel  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGETS = {"max_error_mm": 2.0, "max_error_deg": 0.2}
-
-
-class SteppedClock:
-    def __init__(self, world: SimWorld) -> None:
-        self.world = world
-
-    def now(self) -> float:
-        return self.world.time
-
-    def sleep_until(self, t: float) -> None:
-        if t > self.world.time:
-            self.world.step(t - self.world.time)
 
 
 def calibrate_once(mode: str, seed: int, views: int, texture_dir: Path) -> dict:

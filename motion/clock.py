@@ -1,4 +1,5 @@
-"""Clocks for the streaming executor: the wall clock on hardware, the physics clock in stepped simulation."""
+"""Clocks for the streaming executor: the wall clock on hardware (the stepped-simulation clock is
+drivers.sim.SteppedClock)."""
 
 from __future__ import annotations
 

@@ -2,6 +2,6 @@
 
 from drivers.sim.arm import SimArm, SimGripper
 from drivers.sim.camera import SimCamera
-from drivers.sim.world import SimWorld
+from drivers.sim.world import SimWorld, SteppedClock
 
-__all__ = ["SimArm", "SimCamera", "SimGripper", "SimWorld"]
+__all__ = ["SimArm", "SimCamera", "SimGripper", "SimWorld", "SteppedClock"]

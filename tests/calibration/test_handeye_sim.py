@@ -20,7 +20,7 @@ from calibration.session import (
     nominal_geometry,
     plan_views,
 )
-from drivers.sim import SimArm, SimCamera, SimWorld
+from drivers.sim import SimArm, SimCamera, SimWorld, SteppedClock
 from motion.executor import ExecutorConfig
 from motion.limits import MotionLimits
 from runtime.calibrate import pose_error, sim_overrides
@@ -29,20 +29,6 @@ from safety.robot_model import RobotModel
 
 BOARD = "configs/boards/charuco_8x6_30mm.yaml"
 N_VIEWS = 12
-
-
-class SteppedClock:
-    """Time is the simulation's: sleeping steps the physics."""
-
-    def __init__(self, world: SimWorld) -> None:
-        self.world = world
-
-    def now(self) -> float:
-        return self.world.time
-
-    def sleep_until(self, t: float) -> None:
-        if t > self.world.time:
-            self.world.step(t - self.world.time)
 
 
 @pytest.mark.slow

@@ -15,20 +15,6 @@ from safety.geometry import Primitive, pose
 from safety.robot_model import RobotModel
 
 
-class SteppedClock:
-    """The executor's clock in a non-realtime sim: waiting for a tick advances the physics to it."""
-
-    def __init__(self, world: SimWorld) -> None:
-        self.world = world
-
-    def now(self) -> float:
-        return self.world.time
-
-    def sleep_until(self, t: float) -> None:
-        if t > self.world.time + 1e-9:
-            self.world.step(t - self.world.time)
-
-
 @pytest.fixture(scope="session")
 def robot() -> RobotModel:
     return RobotModel()

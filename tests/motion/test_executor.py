@@ -7,10 +7,9 @@ import time
 
 import numpy as np
 import pytest
-from conftest import SteppedClock
 
 from drivers.sim.arm import SimArm
-from drivers.sim.world import SimWorld
+from drivers.sim.world import SimWorld, SteppedClock
 from motion.approval import ApprovedTrajectory, GateRefused, approve
 from motion.executor import ExecutionRefused, Executor, ExecutorConfig
 from motion.timing import GripperAction
