@@ -148,8 +148,10 @@ class Supervisor:
         while not self._stop_thread.is_set():
             try:
                 self._check(publish=time.monotonic() >= next_telemetry)
-            except Exception:  # the watch must survive anything a device or the bus throws at it
+            except Exception as e:  # the watch must survive anything a device or the bus throws at it
                 log.exception("supervisor check failed")
+                if self.machine.state in MOVING:  # an unwatched arm must not keep moving
+                    self.fail(f"supervisor could not check the arm ({type(e).__name__}: {e})")
             now = time.monotonic()
             if now >= next_telemetry:
                 next_telemetry = max(next_telemetry + telemetry_period, now - telemetry_period)
