@@ -52,6 +52,7 @@ class SceneObject(StrictModel):
     yaw_deg: float = 0.0
     lying: bool = Field(default=False, description="bottle/cylinder on its side")
     lid_open_deg: float = Field(default=100.0, ge=0, le=110, description="lidded_box initial lid angle")
+    lid_color: str | None = Field(default=None, description="lidded_box lid colour; default a darker body colour")
     fixed: bool | None = Field(default=None, description="welded to the table; default per kind")
     jitter: bool = Field(default=True, description="apply the scene's placement randomisation")
 
@@ -100,8 +101,10 @@ def load_scene(path: Path) -> Scene:
     if len(set(names)) != len(names):
         raise SceneError(f"{path}: object names must be unique, got {names}")
     for o in scene.objects:
-        if o.color not in COLORS:
-            raise SceneError(f"{path}: object {o.name}: unknown color {o.color!r} (known: {', '.join(COLORS)})")
+        for key in ("color", "lid_color"):
+            colour = getattr(o, key)
+            if colour is not None and colour not in COLORS:
+                raise SceneError(f"{path}: object {o.name}: unknown {key} {colour!r} (known: {', '.join(COLORS)})")
         needs = {
             "box": "size_m",
             "platform": "size_m",
@@ -290,7 +293,8 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
         ET.SubElement(
             lid, "joint", name=f"{o.name}_hinge", type="hinge", axis="0 -1 0", range="0 1.92", damping="0.05", ref="0"
         )
-        ET.SubElement(asset, "material", name=f"mat_{o.name}_lid", rgba=_f((*[0.8 * c for c in COLORS[o.color]], 1)))
+        lid_rgb = COLORS[o.lid_color] if o.lid_color else tuple(0.8 * c for c in COLORS[o.color])
+        ET.SubElement(asset, "material", name=f"mat_{o.name}_lid", rgba=_f((*lid_rgb, 1)))
         _geom(
             lid,
             o,

@@ -6,6 +6,8 @@ and filter them by silhouette cues (elongation, fill, aspect). Dark and gray obj
 white weighing plate) are not one colour under the lights: their faces range from black to white, but all are
 unsaturated, unlike the wooden table. So for gray and black the instance is the unsaturated component that holds
 enough pixels of that colour, with its holes filled (a pan's rim encloses its floor and whatever lies on it).
+A part word ("the lid of the blue box") names a differently coloured part attached to the named object: the
+largest chromatic component, not of the object's own pixels, that touches the object's silhouette.
 Limits, by design of a no-model backend: brown is not separable from the wooden table, components touching the
 image border are ignored (the floor, the robot base), and white/gray/black objects compete with the white and
 gray robot links (shape words disambiguate).
@@ -62,32 +64,37 @@ SHAPE_WORDS: dict[str, str] = {
     "platform": "platform",
     "chest": "lidded_box",
 }
-FILLER_WORDS = {"the", "a", "an", "small", "big", "large", "little", "object", "lidded"}
+PART_WORDS = ("lid",)
+FILLER_WORDS = {"the", "a", "an", "small", "big", "large", "little", "object", "lidded", "of", "s"}
+ATTACHED_PX = 4  # a part's component lies within this many pixels of its object's silhouette
 
 
 @dataclass(frozen=True)
 class ObjectPhrase:
     colour: str | None
     shape: str | None  # a shape class (value of SHAPE_WORDS)
+    part: str | None = None  # a part of the object (PART_WORDS), e.g. its lid
 
 
 def parse_phrase(phrase: str) -> ObjectPhrase:
-    """Colour and shape words of an object phrase; other words are errors so typos do not go unnoticed."""
-    colour = shape = None
+    """Colour, shape and part words of an object phrase; other words are errors so typos do not go unnoticed."""
+    colour = shape = part = None
     words = re.findall(r"[a-z]+", phrase.lower())
     for w in words:
         if w in COLOUR_WORDS and colour is None:
             colour = COLOUR_WORDS[w]
         elif w in SHAPE_WORDS and shape is None:
             shape = SHAPE_WORDS[w]
+        elif w in PART_WORDS and part is None:
+            part = w
         elif w not in FILLER_WORDS:
             raise SegmentationError(
                 f"offline segmenter: unknown word {w!r} in {phrase!r}; colours: {', '.join(sorted(COLOUR_WORDS))}; "
-                f"shapes: {', '.join(sorted(SHAPE_WORDS))}"
+                f"shapes: {', '.join(sorted(SHAPE_WORDS))}; parts: {', '.join(PART_WORDS)}"
             )
     if colour is None and shape is None:
-        raise SegmentationError(f"offline segmenter: {phrase!r} names no colour or shape word")
-    return ObjectPhrase(colour, shape)
+        raise SegmentationError(f"offline segmenter: {phrase!r} names no colour or shape word for the object")
+    return ObjectPhrase(colour, shape, part)
 
 
 def colour_mask(rgb: np.ndarray, colour: str) -> np.ndarray:
@@ -175,9 +182,21 @@ class OfflineSegmenter(Segmenter):
     def segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
         check_rgb(rgb, "offline segmenter")
         want = parse_phrase(phrase)
+        objects = self._objects(rgb, want)
+        if want.part is None:
+            return objects
+        parts = [(whole, _attached_part(rgb, whole.mask, self._min_area(rgb))) for whole in objects]
+        return [
+            Detection(m, whole.score, box_of(m), f"{want.part} of {whole.label}") for whole, m in parts if m is not None
+        ]
+
+    def _min_area(self, rgb: np.ndarray) -> int:
+        return max(20, int(self.min_area_frac * rgb.shape[0] * rgb.shape[1]))
+
+    def _objects(self, rgb: np.ndarray, want: ObjectPhrase) -> list[Detection]:
         colours = [want.colour] if want.colour else [c for c in (*CHROMATIC, *ACHROMATIC) if c != "orange"]
         h, w = rgb.shape[:2]
-        min_area = max(20, int(self.min_area_frac * h * w))
+        min_area = self._min_area(rgb)
         kernel = np.ones((3, 3), np.uint8)
         bound = self.min_shape_score if want.colour else self.shape_only_score
         found: list[Detection] = []
@@ -200,3 +219,18 @@ class OfflineSegmenter(Segmenter):
                 if score >= bound:
                     found.append(Detection(comp, score, box_of(comp), f"{colour} {want.shape or 'object'}"))
         return sorted(found, key=lambda d: (-d.score, -d.area_px))
+
+
+def _attached_part(rgb: np.ndarray, whole: np.ndarray, min_area: int) -> np.ndarray | None:
+    """The largest chromatic component outside `whole` that touches it (within ATTACHED_PX), or None."""
+    near = cv2.dilate(whole.astype(np.uint8), np.ones((2 * ATTACHED_PX + 1,) * 2, np.uint8)).astype(bool)
+    best: np.ndarray | None = None
+    for colour in CHROMATIC:
+        pixels = cv2.morphologyEx(colour_mask(rgb, colour).astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(pixels, connectivity=8)
+        for i in np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= min_area) + 1:
+            comp = labels == i
+            own = (comp & whole).sum() >= 0.5 * comp.sum()
+            if not own and (comp & near).any() and (best is None or comp.sum() > best.sum()):
+                best = comp & ~whole
+    return best

@@ -15,13 +15,10 @@ from pipeline.reasoning import prompts
 from pipeline.reasoning.interfaces import ImageEditor, TextVLM
 from pipeline.reasoning.prompts import reflect_with
 from pipeline.reasoning.providers import (
-    EnhancementReply,
     ProviderError,
     api_key,
     decode_image,
-    json_schema,
     kind_of_status,
-    parse_reply,
     png_bytes,
     with_retries,
 )
@@ -134,10 +131,7 @@ class GeminiVLM(TextVLM):
         return text
 
     def enhance(self, rgb: np.ndarray, instruction: str) -> Enhancement:
-        what = f"gemini enhance ({self.config.text_model})"
-        text = self._json(prompts.ENHANCE.format(instruction=instruction), rgb, json_schema(EnhancementReply), what)
-        reply = parse_reply(text, EnhancementReply, what)
-        return Enhancement(reply.edit_prompt, reply.target_object, reply.reference_object or None, raw=text)
+        return prompts.enhance_with(self._json, rgb, instruction, f"gemini enhance ({self.config.text_model})")
 
     def reflect(self, request: ReflectionRequest) -> Verdict:
         return reflect_with(self._json, request, f"gemini reflect ({self.config.text_model})")

@@ -17,6 +17,11 @@ from pipeline.reasoning.providers import ProviderError
 from pipeline.reasoning.types import Enhancement, ReflectionRequest, Verdict
 
 
+def lid_of(phrase: str) -> str:
+    """The phrase naming the moving part of an object that is closed (the offline segmenter's part grammar)."""
+    return f"lid of the {phrase}"
+
+
 class OfflineVLM(TextVLM):
     name = "offline"
 
@@ -29,6 +34,8 @@ class OfflineVLM(TextVLM):
         except InstructionError as e:
             raise ProviderError("refused", str(e), raw=str(e)) from None
         prompt = instr.canonical()
+        if instr.action == "close":  # only the lid moves; the box it is hinged to stays
+            return Enhancement(prompt, lid_of(instr.target), raw=prompt, anchor=instr.target)
         return Enhancement(prompt, instr.target, instr.reference, raw=prompt)
 
     def correct(self, prompt: str, problems: list[str]) -> str:

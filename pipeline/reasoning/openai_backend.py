@@ -17,13 +17,10 @@ from pipeline.reasoning import prompts
 from pipeline.reasoning.interfaces import ImageEditor, TextVLM
 from pipeline.reasoning.prompts import reflect_with
 from pipeline.reasoning.providers import (
-    EnhancementReply,
     ProviderError,
     api_key,
     decode_image,
-    json_schema,
     kind_of_status,
-    parse_reply,
     png_bytes,
     with_retries,
 )
@@ -115,10 +112,7 @@ class OpenAIVLM(TextVLM):
         return message.content
 
     def enhance(self, rgb: np.ndarray, instruction: str) -> Enhancement:
-        what = f"openai enhance ({self.config.text_model})"
-        text = self._json(prompts.ENHANCE.format(instruction=instruction), rgb, json_schema(EnhancementReply), what)
-        reply = parse_reply(text, EnhancementReply, what)
-        return Enhancement(reply.edit_prompt, reply.target_object, reply.reference_object or None, raw=text)
+        return prompts.enhance_with(self._json, rgb, instruction, f"openai enhance ({self.config.text_model})")
 
     def reflect(self, request: ReflectionRequest) -> Verdict:
         return reflect_with(self._json, request, f"openai reflect ({self.config.text_model})")

@@ -6,8 +6,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from pipeline.reasoning.providers import VerdictReply, json_schema, parse_reply
-from pipeline.reasoning.types import ReflectionRequest, Verdict
+from pipeline.reasoning.providers import EnhancementReply, VerdictReply, json_schema, parse_reply
+from pipeline.reasoning.types import Enhancement, ReflectionRequest, Verdict
 
 ENHANCE = """You prepare an image-editing request for a robot. The image shows a table-top scene seen by the robot's
 fixed camera. The operator's instruction is:
@@ -21,7 +21,9 @@ viewpoint, zoom, framing, lighting, background, the robot and every other object
 image, that the moved object keeps its size, shape and colour, and that it appears exactly once.
 Write `target_object`: a short noun phrase (two to four words, e.g. "red block") naming the object that moves,
 suitable for an open-vocabulary detector. Write `reference_object`: the same for the object it is placed relative
-to, or an empty string if there is none. Answer with JSON only."""
+to, or an empty string if there is none. When only a part of an object moves (a lid that closes, a door that
+opens), `target_object` names that part (e.g. "lid of the blue box") and `anchor_object` the object it belongs to
+(e.g. "blue box"), which stays where it is; otherwise `anchor_object` is an empty string. Answer with JSON only."""
 
 REFLECT = """You check a candidate goal for a robot. The operator's instruction is:
 
@@ -44,3 +46,15 @@ def reflect_with(ask: Callable[[str, np.ndarray, dict, str], str], request: Refl
     reply = parse_reply(raw, VerdictReply, what)
     revised = reply.revised_prompt.strip() or None
     return Verdict(reply.valid, tuple(reply.reasons), None if reply.valid else revised, raw=raw)
+
+
+def enhance_with(
+    ask: Callable[[str, np.ndarray, dict, str], str], rgb: np.ndarray, instruction: str, what: str
+) -> Enhancement:
+    """Prompt enhancement through any JSON-answering VLM call, with the strict enhancement schema."""
+    raw = ask(ENHANCE.format(instruction=instruction), rgb, json_schema(EnhancementReply), what)
+    reply = parse_reply(raw, EnhancementReply, what)
+    optional = lambda text: text.strip() or None  # noqa: E731
+    return Enhancement(
+        reply.edit_prompt, reply.target_object, optional(reply.reference_object), raw, optional(reply.anchor_object)
+    )

@@ -118,6 +118,7 @@ class EnhancementReply(BaseModel):
     edit_prompt: str
     target_object: str
     reference_object: str
+    anchor_object: str
 
 
 def json_schema(model: type[BaseModel]) -> dict:

@@ -86,7 +86,10 @@ class Reasoner:
             rec.json("enhancement_failure.json", {"kind": e.kind, "error": str(e), "raw": e.raw})
             raise ReasoningError(f"prompt enhancement failed: {e}", [str(e)]) from e
         seconds["enhance"] = time.perf_counter() - t0
-        rec.json("enhancement.json", {"prompt": enh.prompt, "target": enh.target, "reference": enh.reference})
+        rec.json(
+            "enhancement.json",
+            {"prompt": enh.prompt, "target": enh.target, "reference": enh.reference, "anchor": enh.anchor},
+        )
         rec.text("enhancement_raw.txt", enh.raw)
 
         t0 = time.perf_counter()
@@ -97,6 +100,16 @@ class Reasoner:
             raise ReasoningError(reason, [reason])
         mask_init = initial[0].mask
         rec.image("mask_init.png", mask_init)
+        mask_anchor = None
+        if enh.anchor:
+            anchors = self._segment(rgb, enh.anchor)
+            if len(anchors) != 1:
+                reason = (
+                    f"anchor '{enh.anchor}' matches {len(anchors)} objects in the initial image (needs exactly one)"
+                )
+                raise ReasoningError(reason, [reason])
+            mask_anchor = anchors[0].mask & ~mask_init
+            rec.image("mask_anchor.png", mask_anchor)
 
         prompt, accepted, usable = enh.prompt, None, None
         iterations: list[Iteration] = []
@@ -147,6 +160,7 @@ class Reasoner:
             validated=accepted.iteration.verdict is not None and accepted.iteration.verdict.valid,
             T_goal_init_camera=accepted.result.T_goal_init_camera,
             seconds=seconds,
+            mask_anchor=mask_anchor,
         )
         rec.image("goal.png", goal.rgb_goal)
         rec.image("mask_goal.png", goal.mask_goal)

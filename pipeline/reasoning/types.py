@@ -20,12 +20,17 @@ class ReasoningError(RuntimeError):
 
 @dataclass(frozen=True)
 class Enhancement:
-    """The enhancer's output: an editing prompt and the phrases that name the target (and reference) objects."""
+    """The enhancer's output: an editing prompt and the phrases that name the target (and reference) objects.
+
+    `anchor` names the object the target is a part of when only that part moves (a box whose lid closes): the
+    anchor stays put, and grounding uses where the part meets it as the hinge.
+    """
 
     prompt: str
     target: str
     reference: str | None = None
     raw: str = ""
+    anchor: str | None = None
 
 
 @dataclass(frozen=True)
@@ -109,6 +114,7 @@ class GoalState:
     validated: bool
     T_goal_init_camera: np.ndarray | None = None  # only from the offline editor (known by construction)
     seconds: dict[str, float] = field(default_factory=dict)
+    mask_anchor: np.ndarray | None = None  # initial-view mask of the object the moving part is attached to
 
     @property
     def prompts(self) -> tuple[str, ...]:

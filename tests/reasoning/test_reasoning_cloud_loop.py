@@ -29,6 +29,7 @@ def test_reflector_rejection_revises_the_prompt_and_everything_is_recorded(
         "edit_prompt": "The red block sits on the plate.",
         "target_object": "red block",
         "reference_object": "white plate",
+        "anchor_object": "",
     }
     rejected = {
         "valid": False,

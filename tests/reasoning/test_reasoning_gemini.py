@@ -119,10 +119,30 @@ def test_reflect_reply_outside_the_schema_is_malformed(fake_server, config, scen
 
 
 def test_enhance_returns_prompt_and_target(fake_server, config, scene_rgb):
-    reply = {"edit_prompt": "The red block rests on the plate.", "target_object": "red block", "reference_object": ""}
+    reply = {
+        "edit_prompt": "The red block rests on the plate.",
+        "target_object": "red block",
+        "reference_object": "",
+        "anchor_object": "",
+    }
     fake_server.script(gemini_text(json.dumps(reply)))
     e = GeminiVLM(config).enhance(scene_rgb, "put the red block on the plate")
     assert e.prompt == "The red block rests on the plate." and e.target == "red block" and e.reference is None
+    assert e.anchor is None
+    schema = json.loads(fake_server.requests[-1][2])["generationConfig"]["responseJsonSchema"]
+    assert "anchor_object" in schema["required"]
+
+
+def test_enhance_names_the_moving_part_and_its_anchor(fake_server, config, scene_rgb):
+    reply = {
+        "edit_prompt": "The lid of the blue box is closed.",
+        "target_object": "lid of the blue box",
+        "reference_object": "",
+        "anchor_object": "blue box",
+    }
+    fake_server.script(gemini_text(json.dumps(reply)))
+    e = GeminiVLM(config).enhance(scene_rgb, "close the blue box")
+    assert (e.target, e.anchor, e.reference) == ("lid of the blue box", "blue box", None)
 
 
 def test_missing_key_fails_at_construction(monkeypatch):
