@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from pipeline.grounding.articulation import best_turn, find_hinge
 from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
 from pipeline.grounding.hypotheses import face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
@@ -74,6 +75,8 @@ def ground(
     cloud0 = points0[valid0]
     size = object_size(cloud0)
     common["object_size_m"] = size
+    if inp.anchor0 is not None:  # a part that turns about where it meets its anchor (a lid on its box)
+        return _ground_hinged(inp, points0, points1, valid0, valid1, size, cfg, common)
     common["matches"] = len(m.src_px)
     threshold = max(cfg.inlier_min_m, cfg.inlier_rel * size)
     fits = _feature_hypotheses(points0, points1, m, size, threshold, cfg, rng)
@@ -133,6 +136,51 @@ def ground(
         residual_m=rms,
         confidence=confidence,
         details={"depth_alignment": align.__dict__, "view_score": view_score, "threshold_m": threshold},
+        **common,
+    )
+
+
+def _ground_hinged(
+    inp: GroundingInput,
+    points0: np.ndarray,
+    points1: np.ndarray,
+    valid0: np.ndarray,
+    valid1: np.ndarray,
+    size: float,
+    cfg: GroundingConfig,
+    common: dict,
+) -> ObjectMotion:
+    """The turn of a hinged part about the line where it meets its anchor (pipeline.grounding.articulation)."""
+    hinge = find_hinge(points0[valid0], points0[inp.anchor0 & np.isfinite(points0[..., 2])])
+    if isinstance(hinge, str):
+        return refuse(f"hinged target: {hinge}", **common)
+    cloud0, cloud1 = points0[valid0], points1[valid1]
+    angle, agreement = best_turn(hinge, cloud0, cloud1, inp.mask0, inp.mask1, inp.intrinsics)
+    motion = hinge.turn(angle)
+    dist, _ = cKDTree(cloud1).query(motion.apply(cloud0))
+    threshold = max(cfg.inlier_min_m, cfg.inlier_rel * size)
+    inliers = dist < threshold
+    rms = float(np.sqrt(np.mean(dist[inliers] ** 2))) if inliers.any() else float("nan")
+    common |= {"inliers": int(inliers.sum()), "residual_m": rms}
+    if agreement < cfg.min_view_score:
+        return refuse(
+            f"no turn about the hinge explains the images: silhouette agreement {agreement:.2f} at the best angle "
+            f"{np.degrees(angle):.0f} deg (need {cfg.min_view_score})",
+            **common,
+        )
+    return ObjectMotion(
+        ok=True,
+        reason="",
+        R=motion.R,
+        t=motion.t,
+        confidence=agreement,
+        details={
+            "hinge_point_m": hinge.point.tolist(),
+            "hinge_axis": hinge.axis.tolist(),
+            "hinge_angle_deg": float(np.degrees(angle)),
+            "silhouette_agreement": agreement,
+            "threshold_m": threshold,
+        },
         **common,
     )
 

@@ -1,7 +1,8 @@
 """PAIR.npz (the `goalvla ground` input) read and checked key by key.
 
 Keys: rgb0 (H, W, 3) uint8, depth0 (H, W) float32 metres with 0 or NaN invalid, mask0 (H, W) bool, rgb1,
-depth1 (H, W) float relative prediction, depth1_kind "depth" | "disparity", mask1, K (3, 3).
+depth1 (H, W) float relative prediction, depth1_kind "depth" | "disparity", mask1, K (3, 3); optional anchor0
+(H, W) bool: the object the target is hinged to (a lid's box), which stays put.
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ def load_pair(path: Path) -> GroundingInput:
             str(kind),
             arrays["mask1"],
             intrinsics,
+            arrays.get("anchor0"),
         )
     except GroundingError as e:
         raise GroundingError(f"{path}: {e}") from None

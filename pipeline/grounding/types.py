@@ -112,6 +112,7 @@ class GroundingInput:
     depth1_kind: DepthKind
     mask1: np.ndarray
     intrinsics: CameraIntrinsics
+    anchor0: np.ndarray | None = None  # initial-view mask of the object the target is hinged to (stays put)
 
     @classmethod
     def from_goal(cls, frame, goal) -> GroundingInput:
@@ -126,6 +127,7 @@ class GroundingInput:
             goal.depth_goal.kind,
             goal.mask_goal,
             frame.intrinsics,
+            getattr(goal, "mask_anchor", None),
         )
 
     def __post_init__(self) -> None:
@@ -140,12 +142,14 @@ class GroundingInput:
                 raise GroundingError(f"{key} must be float ({h}, {w}), got {a.dtype} {a.shape}")
             if not (np.isfinite(a) & (a > 0 if key == "depth0" else True)).any():
                 raise GroundingError(f"{key} has no valid value (all NaN{' or 0' if key == 'depth0' else ''})")
-        for key in ("mask0", "mask1"):
+        for key in ("mask0", "mask1", "anchor0"):
             a = getattr(self, key)
+            if a is None and key == "anchor0":
+                continue
             if a.dtype != np.bool_ or a.shape != (h, w):
                 raise GroundingError(f"{key} must be bool ({h}, {w}), got {a.dtype} {a.shape}")
             if not a.any():
-                raise GroundingError(f"{key} is empty: no object pixels")
+                raise GroundingError(f"{key} is empty: no {'anchor' if key == 'anchor0' else 'object'} pixels")
         if self.depth1_kind not in ("depth", "disparity"):
             raise GroundingError(f"depth1_kind must be 'depth' or 'disparity', got {self.depth1_kind!r}")
 
@@ -170,4 +174,5 @@ class GroundingInput:
             self.depth1_kind,
             near(self.mask1.astype(np.uint8)).astype(bool),
             K.resized(width, height),
+            None if self.anchor0 is None else near(self.anchor0.astype(np.uint8)).astype(bool),
         )

@@ -182,9 +182,11 @@ class OfflineSegmenter(Segmenter):
     def segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
         check_rgb(rgb, "offline segmenter")
         want = parse_phrase(phrase)
-        objects = self._objects(rgb, want)
         if want.part is None:
-            return objects
+            return self._objects(rgb, want)
+        # the object's own silhouette changes shape as its part moves (a box under its closed lid is a strip):
+        # with a colour word, the colour alone finds it
+        objects = self._objects(rgb, ObjectPhrase(want.colour, None) if want.colour else want)
         parts = [(whole, _attached_part(rgb, whole.mask, self._min_area(rgb))) for whole in objects]
         return [
             Detection(m, whole.score, box_of(m), f"{want.part} of {whole.label}") for whole, m in parts if m is not None

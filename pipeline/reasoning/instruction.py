@@ -115,6 +115,11 @@ PATTERNS: tuple[tuple[str, re.Pattern[str]], ...] = (
 )
 
 
+def lid_of(phrase: str) -> str:
+    """The phrase naming the part that moves when an object is closed (the offline segmenter's part grammar)."""
+    return f"lid of the {phrase}"
+
+
 def parse_instruction(sentence: str, default_push_m: float = 0.10) -> Instruction:
     """Parse one sentence of the offline grammar (case and a final full stop do not matter)."""
     text = " ".join(sentence.lower().strip().rstrip(".!").split())

@@ -4,6 +4,8 @@ The target's pixels are lifted to 3D with the measured depth and intrinsics, mov
 instruction puts them (found from the segmented reference object and the table plane), projected back with a
 z-buffer (correct perspective scale and occlusion) and splatted; the vacated region is inpainted (cv2.inpaint).
 For "stand up" the hidden underside turns into view, so the lying body is first completed as a solid of revolution.
+For "close" only the object's lid moves: it turns about the line where it meets the box (the hinge grounding
+also finds) until it lies flat over the box.
 The goal's depth is composed the same way and handed over as normalised disparity (like a relative monocular
 model), together with the applied rigid motion, which is the ground truth a benchmark compares grounding to.
 """
@@ -17,10 +19,11 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 
 from drivers.types import CameraIntrinsics
+from pipeline.grounding.articulation import find_hinge
 from pipeline.perception.depth import OfflineDepthEstimator, RelativeDepth
 from pipeline.perception.segmenter import SegmentationError, Segmenter
 from pipeline.reasoning.checks import grow
-from pipeline.reasoning.instruction import Instruction, InstructionError, parse_instruction
+from pipeline.reasoning.instruction import Instruction, InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import ImageEditor
 from pipeline.reasoning.providers import ProviderError
 from pipeline.reasoning.tabletop import (
@@ -90,12 +93,7 @@ class OfflineEditor(ImageEditor):
         self, rgb: np.ndarray, depth_m: np.ndarray, K: CameraIntrinsics, instr: Instruction
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if instr.action == "close":
-            raise _refuse(
-                "'close' turns an articulated part (a lid about its hinge) while the rest of the object stays; the "
-                "offline chain grounds one rigid motion of the whole named object and contact plans only grasps and "
-                "straight horizontal pushes, so it cannot carry out a hinged motion (that needs the part segmented, "
-                "its rotation about the hinge grounded and a push that follows the arc)"
-            )
+            return self._close(rgb, depth_m, K, instr.target)
         mask_x = _single(self.segmenter, rgb, instr.target)
         cloud = K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3)
         plane = fit_table_plane(cloud)
@@ -113,6 +111,30 @@ class OfflineEditor(ImageEditor):
         if instr.action == "stand_up":  # the hidden underside turns into view: complete the body first
             px, colours = revolve(fx, colours, plane)
         goal_rgb, goal_depth = _render(rgb, depth_m, K, plane, mask_x, px, colours, T)
+        return goal_rgb, goal_depth, T
+
+    def _close(
+        self, rgb: np.ndarray, depth_m: np.ndarray, K: CameraIntrinsics, phrase: str
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The lid turned about its hinge until it lies over the box, pointing from the hinge to the box's centre."""
+        mask_lid = _single(self.segmenter, rgb, lid_of(phrase))
+        mask_box = _single(self.segmenter, rgb, phrase) & ~mask_lid
+        cloud = K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3)
+        plane = fit_table_plane(cloud)
+        lid, _ = object_points(depth_m, K, mask_lid)
+        box, _ = object_points(depth_m, K, mask_box)
+        hinge = find_hinge(lid, box)
+        if isinstance(hinge, str):
+            raise _refuse(f"'{phrase}': {hinge}")
+        closed = plane.in_plane(footprint(box, plane).centre - hinge.point)  # from the hinge over the box
+        closed -= (closed @ hinge.axis) * hinge.axis
+        now = lid.mean(axis=0) - hinge.point
+        now -= (now @ hinge.axis) * hinge.axis
+        if np.linalg.norm(closed) < 1e-3 or np.linalg.norm(now) < 1e-3:
+            raise _refuse(f"'{phrase}': the lid does not reach away from its hinge, or the box lies on the hinge line")
+        angle = math.atan2(float(np.cross(now, closed) @ hinge.axis), float(now @ closed))
+        T = hinge.turn(angle).matrix
+        goal_rgb, goal_depth = _render(rgb, depth_m, K, plane, mask_lid, lid, rgb[mask_lid], T, keep=mask_box)
         return goal_rgb, goal_depth, T
 
     @staticmethod
@@ -167,11 +189,17 @@ def _render(
     points: np.ndarray,
     colours: np.ndarray,
     T: np.ndarray,
+    keep: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Goal RGB and metric depth: inpaint where the object was, then z-buffer splat it at its new pose."""
+    """Goal RGB and metric depth: inpaint where the object was, then z-buffer splat it at its new pose.
+
+    `keep`: pixels that stay as they are and must not bleed into the vacated region (a lid's box)."""
     h, w = mask_x.shape
     vacated = grow(mask_x, 3)
-    goal = cv2.inpaint(rgb, vacated.astype(np.uint8) * 255, 5, cv2.INPAINT_TELEA)
+    hole = vacated if keep is None else vacated | keep
+    goal = cv2.inpaint(rgb, hole.astype(np.uint8) * 255, 5, cv2.INPAINT_TELEA)
+    if keep is not None:
+        goal[keep & ~vacated] = rgb[keep & ~vacated]
     depth = depth_m.astype(np.float64).copy()
     vv, vu = np.nonzero(vacated)
     depth[vv, vu] = plane.ray_depth(K, np.stack([vu, vv], axis=1).astype(np.float64))

@@ -11,15 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter
-from pipeline.reasoning.instruction import InstructionError, parse_instruction
+from pipeline.reasoning.instruction import InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import TextVLM
 from pipeline.reasoning.providers import ProviderError
 from pipeline.reasoning.types import Enhancement, ReflectionRequest, Verdict
-
-
-def lid_of(phrase: str) -> str:
-    """The phrase naming the moving part of an object that is closed (the offline segmenter's part grammar)."""
-    return f"lid of the {phrase}"
 
 
 class OfflineVLM(TextVLM):

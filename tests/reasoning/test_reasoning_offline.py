@@ -119,7 +119,7 @@ def test_editor_refusals_are_provider_errors(sim_view):
     frame, _, _ = sim_view
     editor = OfflineEditor(OfflineSegmenter())
     for prompt, words in [
-        ("close the red block", "articulated"),
+        ("close the red block", "'lid of the red block' matches 0 objects"),
         ("put the purple block on the plate", "matches 0 objects"),
         ("push the red block backward by 50 cm", "leaves the camera view"),
     ]:
