@@ -42,3 +42,18 @@ def ik(world: SimWorld, T_target: np.ndarray, q0: np.ndarray, iters: int = 300) 
         q += J.T @ np.linalg.solve(J @ J.T + 1e-4 * np.eye(6), err)
         q = np.clip(q, world.spec.lower, world.spec.upper)
     raise AssertionError(f"test IK did not converge: residual {np.linalg.norm(err):.2e}")
+
+
+def set_hinge(world: SimWorld, joint: str, angle_rad: float) -> None:
+    """Put a hinge at an angle, kinematics only (no physics step)."""
+    world.data.qpos[world.model.joint(joint).qposadr[0]] = angle_rad
+    mujoco.mj_kinematics(world.model, world.data)
+
+
+def body_pose(world: SimWorld, body: str) -> np.ndarray:
+    """T_base_body of any body, including an object's part (world frame = base frame)."""
+    b = world.model.body(body).id
+    T = np.eye(4)
+    T[:3, :3] = world.data.xmat[b].reshape(3, 3)
+    T[:3, 3] = world.data.xpos[b]
+    return T

@@ -131,19 +131,28 @@ class SimCamera(Camera):
 
     def object_masks(self) -> dict[str, np.ndarray]:
         """Ground-truth visibility masks (H, W bool) of every scene object in the last frame read."""
-        if self._renderer is None:
-            raise NotConnectedError("SimCamera.object_masks() before connect()")
         m = self.world.model
+        root_of_geom = np.append(m.body_rootid[m.geom_bodyid], -1)  # index -1 -> -1 (no geom)
+        roots = root_of_geom[self._geom_ids("object_masks")]
+        return {o.name: roots == m.body(o.name).id for o in self.world.scene.objects}
+
+    def body_mask(self, body: str) -> np.ndarray:
+        """Ground-truth visibility mask of one body alone, e.g. an object's part ("box_lid")."""
+        m = self.world.model
+        body_of_geom = np.append(m.geom_bodyid, -1)
+        return body_of_geom[self._geom_ids("body_mask")] == m.body(body).id
+
+    def _geom_ids(self, what: str) -> np.ndarray:
+        """The geom seen at each pixel (-1: none), from a segmentation render of the current state."""
+        if self._renderer is None:
+            raise NotConnectedError(f"SimCamera.{what}() before connect()")
         with self._render_lock:
             r = self._renderer
             r.enable_segmentation_rendering()
             r.update_scene(self._render_data, CAMERA_NAME)
             seg = r.render()
             r.disable_segmentation_rendering()
-        geom_ids = np.where(seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM), seg[..., 0], -1)
-        root_of_geom = np.append(m.body_rootid[m.geom_bodyid], -1)  # index -1 -> -1 (no geom)
-        roots = root_of_geom[geom_ids]
-        return {o.name: roots == m.body(o.name).id for o in self.world.scene.objects}
+        return np.where(seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM), seg[..., 0], -1)
 
     def _sensor_depth(self, depth: np.ndarray) -> np.ndarray:
         c = self.config

@@ -80,3 +80,19 @@ def test_black_scale_includes_its_white_plate_and_a_tomato_in_the_pan_stays_in_t
     pan = OfflineSegmenter().segment(img, "the gray pan")
     assert len(pan) == 1 and pan[0].mask[50, 50]  # holes filled: the content is inside the pan's region
     assert OfflineSegmenter().segment(img, "the red ball")[0].area_px < 150
+
+
+def test_part_word_finds_the_differently_coloured_part_attached_to_the_object():
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    cv2.rectangle(img, (40, 60), (80, 90), (30, 60, 200), -1)  # blue box
+    cv2.rectangle(img, (40, 35), (80, 59), (240, 210, 25), -1)  # its yellow lid, touching it
+    cv2.circle(img, (130, 40), 10, (240, 210, 25), -1)  # a yellow ball elsewhere
+    cv2.rectangle(img, (110, 80), (130, 100), (200, 30, 25), -1)  # a red block with nothing attached
+    seg = OfflineSegmenter()
+    (lid,) = seg.segment(img, "the lid of the blue box")
+    assert lid.box == (40, 35, 80, 59) and lid.label == "lid of blue object"
+    assert seg.segment(img, "blue box's lid")[0].box == lid.box
+    assert seg.segment(img, "the lid of the red block") == []
+    assert parse_phrase("lid of the blue box").part == "lid"
+    with pytest.raises(SegmentationError, match="names no colour or shape word"):
+        seg.segment(img, "the lid")
