@@ -7,6 +7,8 @@ import numpy as np
 from safety.geometry import Primitive, robot_primitives, transform_points
 from safety.robot_model import RobotModel
 
+UNIT_CORNERS = np.array([[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)])
+
 
 class GripperBoxes:
     """Gripper body and finger boxes at a given opening, posed by T_base_tcp; checks against points and table."""
@@ -28,6 +30,16 @@ class GripperBoxes:
             self._cache[key] = [(p, poses[p.link] @ p.T_link_geom) for p in self.prims]
         return self._cache[key]
 
+    def corners_tcp(self, width_m: float, links: tuple[str, ...] | None = None) -> np.ndarray:
+        """Corners (K, 3), TCP frame, of the gripper boxes (of `links` only, when given)."""
+        return np.vstack(
+            [
+                transform_points(T_tcp_geom, UNIT_CORNERS * np.asarray(prim.size))
+                for prim, T_tcp_geom in self.boxes_tcp(width_m)
+                if prim.kind == "box" and (links is None or prim.link in links)
+            ]
+        )
+
     def hits_points(self, T_base_tcp: np.ndarray, width_m: float, points_base: np.ndarray) -> bool:
         if len(points_base) == 0:
             return False
@@ -41,10 +53,4 @@ class GripperBoxes:
 
     def lowest_z(self, T_base_tcp: np.ndarray, width_m: float) -> float:
         """Lowest point of the gripper boxes in the base frame (the table top is z = 0)."""
-        corners = np.array([[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)])
-        zs = [
-            transform_points(T_base_tcp @ T_tcp_geom, corners * np.asarray(prim.size))[:, 2].min()
-            for prim, T_tcp_geom in self.boxes_tcp(width_m)
-            if prim.kind == "box"
-        ]
-        return float(min(zs))
+        return float(transform_points(T_base_tcp, self.corners_tcp(width_m))[:, 2].min())

@@ -1,9 +1,10 @@
 """Contact planning: candidates on the object cloud, filtered, checked for reachability, scored, ranked.
 
+Modes: grasp, push (straight, horizontal) and hinge (an arc push turning a hinged part, hinge.py).
 Filters, in order of cost: orientation cone; gripper boxes against the scene (target excluded) and the table;
-at the goal, the gripper and the moved object against the scene; IK (the safety model's) of the pre-contact,
-contact and goal poses, optionally collision-free in a safety CollisionWorld. Every rejection is counted
-under a readable reason so a refusal says what ruled the candidates out.
+along an arc and at the goal, the gripper, and the placed object, against the scene; IK (the safety model's) of
+the pre-contact, contact, arc and goal poses, optionally collision-free in a safety CollisionWorld. Every
+rejection is counted under a readable reason so a refusal says what ruled the candidates out.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.contact.gripper import GripperBoxes
+from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
 from pipeline.contact.sampling import Candidate, estimate_normals, grasp_candidates, push_candidates
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from safety.geometry import transform_points
@@ -50,8 +52,19 @@ def plan_contacts(
     eye = np.array([1.0, 0.0, 1.0]) if viewpoint is None else np.asarray(viewpoint, dtype=np.float64)
     normals = estimate_normals(pts, 0.01, eye)
     rejected: Counter[str] = Counter()
+    gripper = GripperBoxes(robot, cfg.collision_padding_m)
     if mode == "grasp":
         candidates, why = grasp_candidates(pts, normals, cfg, robot.spec.gripper.max_width_m)
+        rejected.update(why)
+    elif mode == "hinge":
+        try:
+            hinge = hinge_from_motion(T_base_motion, cfg.hinge_max_slide_m, cfg.hinge_min_turn_deg)
+        except HingeError as e:
+            candidates, why = [], {str(e): 1}
+        else:
+            g = robot.spec.gripper
+            fingers = GripperBoxes(robot, 0.0).corners_tcp(g.min_width_m, g.finger_links)
+            candidates, why = arc_candidates(pts, hinge, cfg, fingers)
         rejected.update(why)
     else:
         shift = transform_points(T_base_motion, pts.mean(axis=0)[None])[0] - pts.mean(axis=0)
@@ -59,7 +72,6 @@ def plan_contacts(
         if not candidates:
             rejected["no horizontal motion to push along"] += 1
     total = len(candidates) + sum(rejected.values())
-    gripper = GripperBoxes(robot, cfg.collision_padding_m)
     moved = transform_points(T_base_motion, pts)
     scene_tree = cKDTree(scene) if len(scene) else None
     geometric = []
@@ -108,7 +120,12 @@ def _geometric_reason(
             return f"gripper below the table at {where}"
         if gripper.hits_points(T, width, scene):
             return f"gripper hits the scene at {where}"
-    T_goal = T_motion @ c.T_contact
+    for T in c.via:
+        if gripper.lowest_z(T, width) < 0.0:
+            return "gripper below the table along the arc"
+        if gripper.hits_points(T, width, scene):
+            return "gripper hits the scene along the arc"
+    T_goal = _goal(c, T_motion)
     held_width = c.object_width_m if c.mode == "grasp" else 0.0
     if gripper.lowest_z(T_goal, held_width) < 0.0:
         return "gripper below the table at the goal"
@@ -121,8 +138,12 @@ def _geometric_reason(
     return ""
 
 
+def _goal(c: Candidate, T_motion: np.ndarray) -> np.ndarray:
+    return T_motion @ c.T_contact if c.T_goal is None else c.T_goal
+
+
 def _open_width(c: Candidate, cfg: ContactConfig, robot: RobotModel) -> float:
-    if c.mode == "push":
+    if c.mode != "grasp":
         return robot.spec.gripper.min_width_m
     return min(robot.spec.gripper.max_width_m, c.object_width_m + 2 * cfg.finger_clearance_m)
 
@@ -137,10 +158,11 @@ def _reachable_plan(
     c: Candidate, cfg: ContactConfig, robot: RobotModel, seed: np.ndarray, T_motion: np.ndarray, world
 ) -> ContactPlan | str:
     T_pre = _backed_off(c.T_contact, cfg.pre_distance_m)
-    T_goal = T_motion @ c.T_contact
+    T_goal = _goal(c, T_motion)
     accept = None if world is None else (lambda q: not world.in_collision(q))
     qs = []
-    for T, where in ((T_pre, "pre-contact"), (c.T_contact, "contact"), (T_goal, "goal")):
+    arc = [(T, "arc") for T in c.via]
+    for T, where in ((T_pre, "pre-contact"), (c.T_contact, "contact"), *arc, (T_goal, "goal")):
         r = robot.ik(T, qs[-1] if qs else seed, settings=IK_SETTINGS, accept=accept)
         if not r.success:
             return f"{where} pose out of reach"
@@ -150,5 +172,20 @@ def _reachable_plan(
     scores = {"antipodal": c.antipodal, "centred": c.centred, "approach": c.approach, "reach": reach}
     w = cfg.weights
     total = sum(w[k] * v for k, v in scores.items()) / sum(w.values())
-    width = robot.spec.gripper.min_width_m if c.mode == "push" else max(0.0, c.object_width_m - cfg.squeeze_m)
-    return ContactPlan(c.mode, T_pre, c.T_contact, T_goal, width, c.object_width_m, total, scores, *qs)
+    width = robot.spec.gripper.min_width_m if c.mode != "grasp" else max(0.0, c.object_width_m - cfg.squeeze_m)
+    q_pre, q_contact, *q_via, q_goal = qs
+    return ContactPlan(
+        c.mode,
+        T_pre,
+        c.T_contact,
+        T_goal,
+        width,
+        c.object_width_m,
+        total,
+        scores,
+        q_pre,
+        q_contact,
+        q_goal,
+        c.via,
+        tuple(q_via),
+    )

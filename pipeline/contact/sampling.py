@@ -4,7 +4,8 @@ Grasps: the fingers close along an axis y, the gripper approaches along z (strai
 toward the object from the robot). The object's width between the pads is measured on the cloud, and the
 antipodal quality is how well the surface normals at the two contact sides line up with y. One camera sees
 only part of an object, so a side with no observed surface counts as half quality instead of failing.
-Pushes: closed fingers placed behind the object, opposite the direction it must move.
+Pushes: closed fingers placed behind the object, opposite the direction it must move. Arc pushes on hinged
+parts: hinge.py.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ class Candidate:
     antipodal: float  # 0..1
     approach: float  # 1 straight down .. 0 horizontal
     centred: float  # 1 at the centroid .. 0 one object size away
+    via: tuple[np.ndarray, ...] = ()  # TCP poses passed between contact and goal (an arc push)
+    T_goal: np.ndarray | None = None  # None: T_contact carried by the object motion (rigid grasp or push)
 
 
 def frame(y: np.ndarray, z: np.ndarray, origin: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ from pydantic import Field
 
 from drivers.config import StrictModel
 
-ContactMode = Literal["grasp", "push"]
+ContactMode = Literal["grasp", "push", "hinge"]
 
 
 class ContactConfig(StrictModel):
@@ -25,6 +25,12 @@ class ContactConfig(StrictModel):
     max_tilt_deg: float = Field(default=100.0, gt=0, le=180, description="cone: approach axis vs straight down")
     pre_distance_m: float = Field(default=0.10, gt=0, description="pre-contact pose backed off along the approach")
     push_standoff_m: float = Field(default=0.015, ge=0, description="closed fingers this far behind the contact")
+    hinge_contact_fraction: float = Field(
+        default=0.8, gt=0, le=1, description="arc push: contact this far out from the hinge, part extent = 1"
+    )
+    hinge_step_deg: float = Field(default=10.0, gt=0, description="arc push: largest turn between via poses")
+    hinge_max_slide_m: float = Field(default=0.005, ge=0, description="hinge motion: largest slide along the axis")
+    hinge_min_turn_deg: float = Field(default=5.0, ge=0, description="hinge motion: smallest turn worth a push")
     collision_padding_m: float = Field(default=0.005, ge=0)
     placed_clearance_m: float = Field(default=0.004, ge=0, description="moved object vs other scene points")
     ik_candidates: int = Field(default=12, ge=1, description="best geometric candidates checked for reachability")
@@ -41,7 +47,7 @@ class ContactPlan:
     mode: ContactMode
     T_pre: np.ndarray
     T_contact: np.ndarray
-    T_goal: np.ndarray  # T_contact carried by the object motion (rigid-grasp / rigid-push assumption)
+    T_goal: np.ndarray  # T_contact carried by the object motion (grasp, push); the arc's end (hinge)
     width_m: float  # finger gap to command at contact (grasp: below the object's width; push: closed)
     object_width_m: float  # measured gap the object needs between the fingers (0 for pushes)
     score: float
@@ -49,6 +55,8 @@ class ContactPlan:
     q_pre: np.ndarray | None = None
     q_contact: np.ndarray | None = None
     q_goal: np.ndarray | None = None
+    via: tuple[np.ndarray, ...] = ()  # TCP poses between contact and goal, in order (hinge: along the arc)
+    q_via: tuple[np.ndarray, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -6,13 +6,41 @@ import numpy as np
 
 from pipeline.contact.clouds import target_and_scene
 
+HAND_REGION_M = 0.07  # as runtime.manipulation: scene points this close to the TCP at capture are the hand's
 
-def clouds(world, camera, robot, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(target points, scene points without the target, camera position), base frame, from one capture."""
+
+def clouds(world, camera, robot, name: str, body: str | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(target points, scene points without the target or the hand, camera position), base frame, from one capture.
+
+    The target is the scene object `name`, or only its part `body` (a MuJoCo body, e.g. a lid) when given.
+    """
     frame = camera.read().with_extrinsics(camera.T_base_camera)
     q = world.data.qpos[world.arm_qpos].copy()
-    target, scene = target_and_scene(frame, camera.object_masks()[name], robot, q)
+    mask = camera.object_masks()[name] if body is None else camera.body_mask(body)
+    target, scene = target_and_scene(frame, mask, robot, q)
+    scene = scene[np.linalg.norm(scene - robot.tcp_pose(q)[:3, 3], axis=1) > HAND_REGION_M]
     return target, scene, frame.T_base_camera[:3, 3]
+
+
+def hinge_angle(world, joint: str) -> float:
+    """A hinge joint's angle now [rad]."""
+    return float(world.data.qpos[world.model.joint(joint).qposadr[0]])
+
+
+def body_motion(world, body: str, joint: str, angle_rad: float) -> np.ndarray:
+    """x_goal = T x_now (base frame) of a body when its hinge joint turns to angle_rad, everything else kept."""
+    import mujoco  # here, not at the top: drivers.sim picks the GL backend before mujoco is first imported
+
+    m, data = world.model, mujoco.MjData(world.model)
+    data.qpos[:] = world.data.qpos
+    poses = []
+    for angle in (hinge_angle(world, joint), angle_rad):
+        data.qpos[m.joint(joint).qposadr[0]] = angle
+        mujoco.mj_kinematics(m, data)
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = data.body(body).xmat.reshape(3, 3), data.body(body).xpos
+        poses.append(T)
+    return poses[1] @ np.linalg.inv(poses[0])
 
 
 def move(world, arm, q_target: np.ndarray, seconds: float) -> None:

@@ -1,0 +1,107 @@
+"""Hinged parts (a lid, a door): the hinge recovered from the part's motion, and the arc push that turns it.
+
+A hinged part can only turn about a fixed line, so its grounded motion (x_goal = T x_init, base frame) must be a
+screw with no slide: the rotation's axis is the hinge direction, the least-squares solution of (I - R) p = t is
+a point on it, and t's component along the axis is a slide the hinge cannot make. The part is modelled as a thin
+plate containing the hinge line (a lid): the seen points give its direction away from the hinge, its extent and
+the plate's offset. The closed fingers lie along the plate, pointing toward the hinge with the closing axis along
+it, so their broad side presses the face that faces against the motion, near the free edge; they keep that
+orientation and follow the contact point's arc about the hinge to the goal angle, via poses at most
+hinge_step_deg apart. Relative to the turning plate the fingers then turn away from it, so the standoff kept from
+the face at the fingers' nearest corner is kept by the whole fingers (the hand, further back, is beyond the
+free edge of a part pushed near that edge).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from pipeline.contact.sampling import Candidate, frame
+from pipeline.contact.types import ContactConfig
+
+MIN_EXTENT_M = 0.02  # a part shorter than this from its hinge has no free edge to push near
+
+
+class HingeError(ValueError):
+    """The motion is not a turn about a fixed hinge (says how far off it is)."""
+
+
+@dataclass(frozen=True)
+class Hinge:
+    """A turn by angle_rad (right hand, > 0) about the line through point with unit direction axis, base frame."""
+
+    axis: np.ndarray
+    point: np.ndarray
+    angle_rad: float
+
+    def turn(self, angle_rad: float) -> np.ndarray:
+        """T_base (4x4) of the turn by angle_rad about the hinge line."""
+        T = np.eye(4)
+        T[:3, :3] = Rotation.from_rotvec(angle_rad * self.axis).as_matrix()
+        T[:3, 3] = self.point - T[:3, :3] @ self.point
+        return T
+
+
+def hinge_from_motion(T_base_motion: np.ndarray, max_slide_m: float, min_turn_deg: float) -> Hinge:
+    """The hinge of a rigid motion by screw decomposition; HingeError if it slides or hardly turns."""
+    T = np.asarray(T_base_motion, dtype=np.float64)
+    rotvec = Rotation.from_matrix(T[:3, :3]).as_rotvec()
+    angle = float(np.linalg.norm(rotvec))
+    if math.degrees(angle) < min_turn_deg:
+        raise HingeError(
+            f"motion turns {math.degrees(angle):.1f} deg, below the {min_turn_deg:.0f} deg of a hinge push"
+        )
+    axis = rotvec / angle
+    t = T[:3, 3]
+    slide = float(axis @ t)
+    if abs(slide) > max_slide_m:
+        raise HingeError(
+            f"motion slides {slide * 1000:.0f} mm along its rotation axis (a hinge allows {max_slide_m * 1000:.0f})"
+        )
+    # (I - R) is singular along the axis; the least-squares point is the line's point closest to the base origin
+    point = np.linalg.lstsq(np.eye(3) - T[:3, :3], t - slide * axis, rcond=None)[0]
+    return Hinge(axis, point, angle)
+
+
+def arc_candidates(
+    points: np.ndarray, hinge: Hinge, cfg: ContactConfig, fingers_tcp: np.ndarray
+) -> tuple[list[Candidate], dict[str, int]]:
+    """Arc pushes on a plate hinged along `hinge`: contact near the free edge, laterally centred and off-centre.
+
+    points: the part's cloud (N, 3), base frame. fingers_tcp: the closed fingers' box corners (K, 3), TCP frame:
+    the nearest stays cfg.push_standoff_m from the pushed face all along the arc. The seen face is taken as the
+    pushed one: when the camera sees the other face, the standoff spans the plate's thickness.
+    """
+    rel = points - hinge.point
+    along = rel @ hinge.axis
+    radial = rel - np.outer(along, hinge.axis)
+    u = np.linalg.svd(radial, full_matrices=False)[2][0]  # the plate's direction away from the hinge line
+    u = u if (radial @ u).mean() > 0 else -u
+    v = np.cross(hinge.axis, u)  # how the plate's points start to move
+    extent = float(np.percentile(radial @ u, 98))
+    if extent < MIN_EXTENT_M:
+        return [], {f"part reaches only {extent * 1000:.0f} mm from the hinge": 1}
+    face = float(np.percentile(radial @ v, 5))  # the seen points furthest against the motion
+    lo, hi = np.percentile(along, (5, 95))
+    R_tcp = frame(hinge.axis, -u, np.zeros(3))[:3, :3]
+    steps = max(1, math.ceil(math.degrees(hinge.angle_rad) / cfg.hinge_step_deg - 1e-6))
+    out = []
+    for lateral in (0.0, -0.25, 0.25):
+        contact = hinge.point + cfg.hinge_contact_fraction * extent * u + face * v
+        contact = contact + (0.5 * (lo + hi) + lateral * (hi - lo)) * hinge.axis
+        poses = []
+        for k in range(steps + 1):
+            turn = hinge.turn(k * hinge.angle_rad / steps)
+            into = turn[:3, :3] @ v  # the pushed face's inward normal, turned with the part
+            reach = float(np.max(fingers_tcp @ (R_tcp.T @ into)))
+            T = np.eye(4)
+            T[:3, :3] = R_tcp
+            T[:3, 3] = turn[:3, :3] @ contact + turn[:3, 3] - (cfg.push_standoff_m + reach) * into
+            poses.append(T)
+        centred = 1.0 - 2.0 * abs(lateral)
+        out.append(Candidate("hinge", poses[0], 0.0, 1.0, 1.0, centred, tuple(poses[1:-1]), poses[-1]))
+    return out, {}

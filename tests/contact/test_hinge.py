@@ -1,0 +1,120 @@
+"""Hinge push: the hinge line recovered from a part's motion, and the arc of TCP poses that turns the part."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from pipeline.contact.gripper import GripperBoxes
+from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
+from pipeline.contact.planner import plan_contacts
+from pipeline.contact.types import ContactConfig
+from safety.geometry import transform_points
+from safety.robot_model import RobotModel
+
+HINGE_POINT = np.array([0.44, 0.0, 0.07])  # the back top edge of a box, the edge nearer the robot
+LID_M = 0.12  # from the hinge to the free edge
+THICKNESS_M = 0.008
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+@pytest.fixture(scope="module")
+def fingers(robot):
+    g = robot.spec.gripper
+    return GripperBoxes(robot, 0.0).corners_tcp(g.min_width_m, g.finger_links)
+
+
+def turn_about(axis, point, angle_deg) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(math.radians(angle_deg) * np.asarray(axis) / np.linalg.norm(axis)).as_matrix()
+    T[:3, 3] = point - T[:3, :3] @ point
+    return T
+
+
+def open_lid(open_deg: float, n: int = 2000, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The points a camera beyond the box sees of a lid opened open_deg (its inner face), and the closing motion.
+
+    The lid is a plate hinged along base y; closed it lies over the box (+x of the hinge), its inner face down.
+    """
+    rng = np.random.default_rng(seed)
+    closed = np.column_stack([rng.uniform(0, LID_M, n), rng.uniform(-0.08, 0.08, n), np.zeros(n)]) + HINGE_POINT
+    opening = turn_about([0.0, -1.0, 0.0], HINGE_POINT, open_deg)  # opens upward, toward the robot
+    return transform_points(opening, closed), np.linalg.inv(opening)
+
+
+def test_a_turn_about_a_line_gives_that_line_and_angle():
+    axis = np.array([0.3, -0.9, 0.2]) / np.linalg.norm([0.3, -0.9, 0.2])
+    point = np.array([0.5, 0.1, 0.2])
+    hinge = hinge_from_motion(turn_about(axis, point, 100.0), 0.005, 5.0)
+    assert math.degrees(hinge.angle_rad) == pytest.approx(100.0)
+    np.testing.assert_allclose(hinge.axis, axis, atol=1e-9)
+    off_line = (hinge.point - point) - ((hinge.point - point) @ axis) * axis
+    assert np.linalg.norm(off_line) < 1e-9
+    np.testing.assert_allclose(hinge.turn(hinge.angle_rad), turn_about(axis, point, 100.0), atol=1e-9)
+
+
+def test_a_turn_the_other_way_flips_the_axis_not_the_angle():
+    hinge = hinge_from_motion(turn_about([0, 1, 0], HINGE_POINT, -40.0), 0.005, 5.0)
+    assert math.degrees(hinge.angle_rad) == pytest.approx(40.0)
+    np.testing.assert_allclose(hinge.axis, [0, -1, 0], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("slide", "angle_deg", "reason"),
+    [
+        ([0.0, 0.02, 0.0], 90.0, "slides 20 mm along its rotation axis"),
+        ([0.1, 0.0, 0.0], 2.0, "turns 2.0 deg, below the 5 deg"),
+        ([0.1, 0.0, 0.0], 0.0, "turns 0.0 deg"),
+    ],
+)
+def test_a_motion_no_hinge_makes_is_refused_with_the_reason(slide, angle_deg, reason):
+    T = turn_about([0, 1, 0], HINGE_POINT, angle_deg)
+    T[:3, 3] += slide
+    with pytest.raises(HingeError, match=reason):
+        hinge_from_motion(T, 0.005, 5.0)
+
+
+def test_arc_poses_follow_the_lid_from_open_to_just_above_closed(fingers):
+    cfg = ContactConfig()
+    points, closing = open_lid(100.0)
+    hinge = hinge_from_motion(closing, cfg.hinge_max_slide_m, cfg.hinge_min_turn_deg)
+    candidates, rejected = arc_candidates(points, hinge, cfg, fingers)
+    assert len(candidates) == 3 and not rejected
+    outward_open = np.linalg.inv(closing)[:3, :3] @ np.array([0.0, 0.0, 1.0])  # pushed face (up when closed), open
+    for c in candidates:
+        poses = [c.T_contact, *c.via, c.T_goal]
+        assert len(poses) == 11  # 100 deg in steps of 10
+        for k, T in enumerate(poses):  # pose k keeps the fingers off the lid turned 10k deg toward closed
+            np.testing.assert_allclose(T[:3, :3], c.T_contact[:3, :3], atol=1e-12)  # orientation fixed
+            outward = hinge.turn(math.radians(10.0 * k))[:3, :3] @ outward_open
+            gap = (transform_points(T, fingers) - HINGE_POINT) @ outward
+            assert gap.min() == pytest.approx(cfg.push_standoff_m, abs=1e-6)  # nearest finger corner off the face
+        radial = np.linalg.norm(np.cross(c.T_contact[:3, 3] - hinge.point, hinge.axis))
+        assert 0.75 * LID_M < radial < LID_M  # near the free edge
+        assert c.T_contact[2, 2] < -0.95  # fingers along the lid (10 deg past vertical), pointing to the hinge
+        lowest = transform_points(c.T_goal, fingers)[:, 2].min()
+        assert lowest == pytest.approx(HINGE_POINT[2] + cfg.push_standoff_m, abs=1e-6)  # just above the closed lid
+    lateral = sorted(c.T_contact[1, 3] for c in candidates)
+    assert lateral[0] < -0.02 and abs(lateral[1]) < 0.005 and lateral[2] > 0.02
+
+
+def test_planner_returns_reachable_arc_plans_and_refuses_a_slide(robot):
+    points, closing = open_lid(100.0)
+    result = plan_contacts(points, np.zeros((0, 3)), closing, robot, mode="hinge", viewpoint=np.array([1.1, 0, 0.8]))
+    assert result.ok, result.reason
+    for plan in result.plans:
+        assert plan.mode == "hinge" and plan.width_m == pytest.approx(robot.spec.gripper.min_width_m)
+        assert len(plan.via) == len(plan.q_via) == 9
+        for T, q in zip((*plan.via, plan.T_goal), (*plan.q_via, plan.q_goal), strict=True):
+            np.testing.assert_allclose(robot.tcp_pose(q), T, atol=1e-4)
+    sliding = closing.copy()
+    sliding[1, 3] += 0.03
+    refused = plan_contacts(points, np.zeros((0, 3)), sliding, robot, mode="hinge")
+    assert not refused.ok and "slides 30 mm along its rotation axis" in refused.reason
