@@ -16,7 +16,7 @@ import math
 
 import cv2
 import numpy as np
-from scipy.ndimage import distance_transform_edt
+from scipy.ndimage import distance_transform_edt, median_filter
 
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.articulation import find_hinge
@@ -241,27 +241,41 @@ def _render(
 def revolve(fp: Footprint, colours: np.ndarray, plane: Plane, step_m: float = 0.002) -> tuple[np.ndarray, np.ndarray]:
     """A lying body completed as a solid of revolution about its long axis, from its visible (upper) surface.
 
-    The radius profile along the axis is half the body's width across it; colours are the visible median per
-    slice. Used for stand-up, where the hidden underside turns towards the camera.
+    The body rests on the table, so its axis lies one body radius above it: the cross-section circle (axis
+    position across and radius) is fitted, under that constraint, to the seen points of the widest slices (the
+    body, not a bottle's neck; the seen arc is one-sided, so its middle is not the axis). Each slice along the axis
+    takes its own radius about that axis and the median colour seen in it. Used for stand-up, where the hidden
+    underside turns towards the camera.
     """
     axis = principal_axis(fp, plane)
     across = np.cross(plane.n, axis)
     q = plane.project(fp.points) - fp.centre
-    s, w = q @ axis, q @ across
+    s, w, h = q @ axis, q @ across, fp.heights
     bins = np.arange(s.min(), s.max() + step_m, step_m)
     idx = np.clip(np.digitize(s, bins) - 1, 0, len(bins) - 1)
+    slice_width = np.zeros(len(bins))
+    for k in np.unique(idx):
+        slice_width[k] = np.ptp(np.percentile(w[idx == k], [5, 95]))
+    body = slice_width[idx] >= 0.8 * np.percentile(slice_width[slice_width > 0], 90)
+    # the circle touching the table through the body's seen points: w^2 + h^2 = 2 a w + 2 r h - a^2
+    A = np.column_stack([2 * w[body], 2 * h[body], -np.ones(body.sum())])
+    (centre_across, body_radius, _), *_ = np.linalg.lstsq(A, w[body] ** 2 + h[body] ** 2)
+    if not 0.0 < body_radius < 2 * fp.radius_m:
+        raise GeometryError(f"no lying body of revolution fits the target (fitted radius {body_radius * 1000:.0f} mm)")
+    distance = np.hypot(w - centre_across, h - body_radius)  # of each seen point from the fitted axis
     radius_profile = np.zeros(len(bins))
-    centre_across = float(np.median(w))
     slice_colour = np.tile(np.median(colours, axis=0), (len(bins), 1))
     for k in np.unique(idx):
         sel = idx == k
-        radius_profile[k] = 0.5 * (np.percentile(w[sel], 95) - np.percentile(w[sel], 5))
+        radius_profile[k] = min(np.median(distance[sel]), body_radius)
         slice_colour[k] = np.median(colours[sel], axis=0)
-    body_radius = float(np.percentile(radius_profile[radius_profile > 0], 90))
+    seen = np.unique(idx)  # slices without a seen point take their neighbours' radius, not the body's
+    radius_profile = np.interp(np.arange(len(bins)), seen, radius_profile[seen])
+    radius_profile = median_filter(radius_profile, size=5, mode="nearest")  # a few stray edge points per slice
     origin = fp.centre + centre_across * across + body_radius * plane.n
     pts, cols = [], []
     for k, s_k in enumerate(bins):
-        r = radius_profile[k] if radius_profile[k] > 0 else body_radius
+        r = radius_profile[k]
         n_around = max(8, int(2 * np.pi * r / step_m))
         theta = np.linspace(0.0, 2 * np.pi, n_around, endpoint=False)
         ring = origin + s_k * axis + r * (np.cos(theta)[:, None] * across + np.sin(theta)[:, None] * plane.n)
