@@ -66,6 +66,8 @@ def _small_pair() -> dict:
         (lambda d: d.update(depth1_kind=np.array("inverse")), "depth1_kind"),
         (lambda d: d.update(K=np.eye(2)), "K"),
         (lambda d: d.update(mask1=d["mask1"].astype(np.uint8)), "mask1"),
+        (lambda d: d.update(anchor0=d["mask0"][:, :-1]), "anchor0"),
+        (lambda d: d.update(anchor0=np.zeros((24, 32), bool)), "anchor0"),
     ],
 )
 def test_bad_input_exits_2_naming_the_key(tmp_path, change, key, sim_config_path):
