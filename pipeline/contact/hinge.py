@@ -5,11 +5,16 @@ screw with no slide: the rotation's axis is the hinge direction, the least-squar
 a point on it, and t's component along the axis is a slide the hinge cannot make. The part is modelled as a thin
 plate containing the hinge line (a lid): the seen points give its direction away from the hinge, its extent and
 the plate's offset. The closed fingers lie along the plate, pointing toward the hinge with the closing axis along
-it, so their broad side presses the face that faces against the motion, near the free edge; they keep that
-orientation and follow the contact point's arc about the hinge to the goal angle, via poses at most
-hinge_step_deg apart. Relative to the turning plate the fingers then turn away from it, so the standoff kept from
-the face at the fingers' nearest corner is kept by the whole fingers (the hand, further back, is beyond the
-free edge of a part pushed near that edge).
+it, so their broad side presses the face that faces against the motion, near the free edge. They come to it
+from beyond the free edge, slanted hinge_approach_deg in front of the face, so a part that has leaned further
+toward them since the capture is pushed on its way rather than landed on (straight along the push would put
+the pre-contact pose of a lid leaning toward the robot low and close to the arm's base, where it hardly
+reaches). They keep that orientation and follow the contact point's arc about the hinge
+to the goal angle, via poses at most hinge_step_deg apart, the last raised by hinge_end_lift_m so the fingers
+end clear of what the part closes on (a lid left a few degrees open there falls shut by its weight). Relative
+to the turning plate the fingers turn away from it, so the standoff kept from the face at the fingers' nearest
+corner is kept by the whole fingers (the hand, further back, is beyond the free edge of a part pushed near
+that edge).
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from pipeline.contact.sampling import Candidate, frame
 from pipeline.contact.types import ContactConfig
 
 MIN_EXTENT_M = 0.02  # a part shorter than this from its hinge has no free edge to push near
+LATERAL = 0.15  # off-centre contacts this fraction of the part's width along the hinge from its middle
 
 
 class HingeError(ValueError):
@@ -87,10 +93,16 @@ def arc_candidates(
         return [], {f"part reaches only {extent * 1000:.0f} mm from the hinge": 1}
     face = float(np.percentile(radial @ v, 5))  # the seen points furthest against the motion
     lo, hi = np.percentile(along, (5, 95))
+    # the gripper is symmetric about its approach axis: of the two closing-axis signs, the one with the TCP x axis
+    # pointing away from the base, as in the arm's home posture, which keeps the wrist from turning half round
+    away = np.array([*(hinge.point + extent * u)[:2], 0.0])
     R_tcp = frame(hinge.axis, -u, np.zeros(3))[:3, :3]
+    R_tcp = R_tcp if R_tcp[:, 0] @ away >= 0 else R_tcp @ np.diag([-1.0, -1.0, 1.0])
+    slant = math.radians(cfg.hinge_approach_deg)
+    back_off = math.cos(slant) * u - math.sin(slant) * v
     steps = max(1, math.ceil(math.degrees(hinge.angle_rad) / cfg.hinge_step_deg - 1e-6))
     out = []
-    for lateral in (0.0, -0.25, 0.25):
+    for lateral in (0.0, -LATERAL, LATERAL):
         contact = hinge.point + cfg.hinge_contact_fraction * extent * u + face * v
         contact = contact + (0.5 * (lo + hi) + lateral * (hi - lo)) * hinge.axis
         poses = []
@@ -102,6 +114,7 @@ def arc_candidates(
             T[:3, :3] = R_tcp
             T[:3, 3] = turn[:3, :3] @ contact + turn[:3, 3] - (cfg.push_standoff_m + reach) * into
             poses.append(T)
-        centred = 1.0 - 2.0 * abs(lateral)
-        out.append(Candidate("hinge", poses[0], 0.0, 1.0, 1.0, centred, tuple(poses[1:-1]), poses[-1]))
+        poses[-1][2, 3] += cfg.hinge_end_lift_m
+        centred = 1.0 - abs(lateral)
+        out.append(Candidate("hinge", poses[0], 0.0, 1.0, 1.0, centred, tuple(poses[1:-1]), poses[-1], back_off))
     return out, {}

@@ -114,7 +114,7 @@ def _geometric_reason(
     if tilt > cfg.max_tilt_deg:
         return f"approach outside the {cfg.max_tilt_deg:.0f} deg cone"
     width = _open_width(c, cfg, robot)
-    T_pre = _backed_off(c.T_contact, cfg.pre_distance_m)
+    T_pre = _pre_contact(c, cfg.pre_distance_m)
     for T, where in ((c.T_contact, "contact"), (T_pre, "pre-contact")):
         if gripper.lowest_z(T, width) < 0.0:
             return f"gripper below the table at {where}"
@@ -148,16 +148,17 @@ def _open_width(c: Candidate, cfg: ContactConfig, robot: RobotModel) -> float:
     return min(robot.spec.gripper.max_width_m, c.object_width_m + 2 * cfg.finger_clearance_m)
 
 
-def _backed_off(T: np.ndarray, distance_m: float) -> np.ndarray:
-    out = T.copy()
-    out[:3, 3] -= distance_m * T[:3, 2]
+def _pre_contact(c: Candidate, distance_m: float) -> np.ndarray:
+    """The contact pose backed off by distance_m: up its approach axis, or along the candidate's own direction."""
+    out = c.T_contact.copy()
+    out[:3, 3] += distance_m * (-c.T_contact[:3, 2] if c.back_off is None else c.back_off)
     return out
 
 
 def _reachable_plan(
     c: Candidate, cfg: ContactConfig, robot: RobotModel, seed: np.ndarray, T_motion: np.ndarray, world
 ) -> ContactPlan | str:
-    T_pre = _backed_off(c.T_contact, cfg.pre_distance_m)
+    T_pre = _pre_contact(c, cfg.pre_distance_m)
     T_goal = _goal(c, T_motion)
     accept = None if world is None else (lambda q: not world.in_collision(q))
     qs = []

@@ -30,6 +30,7 @@ class Candidate:
     centred: float  # 1 at the centroid .. 0 one object size away
     via: tuple[np.ndarray, ...] = ()  # TCP poses passed between contact and goal (an arc push)
     T_goal: np.ndarray | None = None  # None: T_contact carried by the object motion (rigid grasp or push)
+    back_off: np.ndarray | None = None  # unit direction from contact to pre-contact (None: up the approach axis)
 
 
 def frame(y: np.ndarray, z: np.ndarray, origin: np.ndarray) -> np.ndarray:

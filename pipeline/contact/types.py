@@ -29,6 +29,12 @@ class ContactConfig(StrictModel):
         default=0.8, gt=0, le=1, description="arc push: contact this far out from the hinge, part extent = 1"
     )
     hinge_step_deg: float = Field(default=10.0, gt=0, description="arc push: largest turn between via poses")
+    hinge_approach_deg: float = Field(
+        default=25.0, ge=0, le=90, description="arc push: approach line's slant off the part's face, 0 = along it"
+    )
+    hinge_end_lift_m: float = Field(
+        default=0.01, ge=0, description="arc push: the last pose raised this much above the arc's end"
+    )
     hinge_max_slide_m: float = Field(default=0.005, ge=0, description="hinge motion: largest slide along the axis")
     hinge_min_turn_deg: float = Field(default=5.0, ge=0, description="hinge motion: smallest turn worth a push")
     collision_padding_m: float = Field(default=0.005, ge=0)
