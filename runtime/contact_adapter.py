@@ -15,18 +15,19 @@ from runtime.manipulation import Chain, ContactPoses
 from runtime.stages import require
 from safety.geometry import Primitive, transform_points
 
-PUSH_ACTIONS = ("push", "close")
+MODES = {"push": "push", "close": "hinge"}  # instruction action -> contact mode (anything else: grasp)
 TABLE_MARGIN_M = 0.002
 
 
 def contact_mode(instruction: str) -> str:
-    """push for the grammar's push/close sentences, grasp otherwise (free text from a model backend included)."""
+    """push for the grammar's push sentences, hinge (an arc push about the part's hinge) for close, grasp otherwise
+    (free text from a model backend included)."""
     parse = require("contact", "pipeline.reasoning.instruction", "parse_instruction")
     try:
         action = parse(instruction).action
     except ValueError:
         return "grasp"
-    return "push" if action in PUSH_ACTIONS else "grasp"
+    return MODES.get(action, "grasp")
 
 
 def held_box(points_base: np.ndarray, T_base_tcp: np.ndarray, tcp_link: str, name: str) -> Primitive:
@@ -83,8 +84,10 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
     target = getattr(ctx.goal, "target", "target")
     out = []
     for rank, plan in enumerate(result.plans, start=1):
-        held = held_box(points, plan.T_contact, chain.robot.tcp_frame, target) if mode == "grasp" else None
-        open_w = None if mode == "push" else min(chain.robot.spec.gripper.max_width_m, plan.object_width_m + 0.016)
+        held, open_w = None, None
+        if mode == "grasp":
+            held = held_box(points, plan.T_contact, chain.robot.tcp_frame, target)
+            open_w = min(chain.robot.spec.gripper.max_width_m, plan.object_width_m + 0.016)
         out.append(
             ContactPoses(
                 plan.mode,
@@ -95,6 +98,8 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
                 held,
                 open_w,
                 f"pipeline.contact #{rank} score {plan.score:.2f}",
+                plan.via,
+                ctx.motion.T_base,
             )
         )
     return out

@@ -8,6 +8,8 @@ cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
           straight up) -> carry (object attached to the TCP: free path above the place pose, straight down, open)
           -> retreat (straight up) -> home (the placed object is an obstacle)
   push:   approach (free path, close the fingers) -> push (straight in, push along the motion, back up) -> home
+  hinge:  as push, the push following the via poses along the hinged part's arc (a Cartesian line between each
+          two), ending just off the turned part, whence straight up is away from it
 The obstacle world is the camera's point cloud (robot, table and target removed) plus the table and the
 profile's workspace and keep-out boxes. The work itself is motion's (IK goals, OMPL, Cartesian lines, Ruckig)
 and safety's (the gate); this module only chains it.
@@ -43,7 +45,7 @@ HAND_REGION_M = 0.07  # radius about the TCP at capture time whose points belong
 class ContactPoses:
     """What the contact stage decided, in the base frame (TCP poses)."""
 
-    mode: str  # "grasp" | "push"
+    mode: str  # "grasp" | "push" | "hinge"
     T_pre: np.ndarray  # approach start
     T_contact: np.ndarray  # grasp pose, or where the push starts
     T_goal: np.ndarray  # T_contact moved with the object to its goal (grasp: place pose; push: push end)
@@ -51,6 +53,13 @@ class ContactPoses:
     held: Primitive | None = None  # the object's geometry in the TCP frame once grasped
     open_width_m: float | None = None  # finger gap for the approach (None: fully open)
     source: str = ""  # who decided (for the record), e.g. "pipeline.contact #1 score 0.82"
+    via: tuple[np.ndarray, ...] = ()  # TCP poses the push passes between contact and goal (hinge: the arc)
+    T_motion: np.ndarray | None = None  # the object's motion (None: T_goal T_contact^-1, the TCP rides it rigidly)
+
+    @property
+    def object_motion(self) -> np.ndarray:
+        """x_goal = T x_init of the object (base frame); a hinge push's TCP does not turn with the part."""
+        return self.T_motion if self.T_motion is not None else self.T_goal @ np.linalg.inv(self.T_contact)
 
 
 @dataclass(frozen=True)
@@ -184,19 +193,21 @@ def plan_push(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
 
     touching = chain.world(g.min_width_m)
     planner = Planner(touching, chain.limits)
-    contact = chain.line(planner, q_pre, poses.T_contact, "approach to the push")
-    push = chain.line(planner, contact[-1], poses.T_goal, "push")
-    back = chain.line(planner, push[-1], lifted(poses.T_goal, LIFT_M), "retreat after the push")
-    pushing = chain.approved([contact, push, back], touching, q_pre, "push")
+    path = [chain.line(planner, q_pre, poses.T_contact, "approach to the push")]
+    for k, T in enumerate((*poses.via, poses.T_goal), start=1):
+        what = f"push (arc pose {k} of {len(poses.via) + 1})" if poses.via else "push"
+        path.append(chain.line(planner, path[-1][-1], T, what))
+    back = chain.line(planner, path[-1][-1], lifted(poses.T_goal, LIFT_M), "retreat after the push")
+    pushing = chain.approved([*path, back], touching, q_pre, "push")
     home = _home(chain, poses, g.min_width_m, back[-1])
-    waypoints = {"pre-push": poses.T_pre, "contact": poses.T_contact, "push end": poses.T_goal}
+    arc = {f"arc {k}": T for k, T in enumerate(poses.via, start=1)}
+    waypoints = {"pre-push": poses.T_pre, "contact": poses.T_contact, **arc, "push end": poses.T_goal}
     return ManipulationPlan((approach, pushing, home), ("approach", "push", "home"), poses, waypoints)
 
 
 def _home(chain: Chain, poses: ContactPoses, width_m: float, q_start: np.ndarray) -> ApprovedTrajectory:
-    """Back to the home posture, with the object where it now is (moved like the contact pose) as an obstacle."""
-    T_motion = poses.T_goal @ np.linalg.inv(poses.T_contact)
-    world = chain.world(width_m, obstacle=transform_points(T_motion, chain.target_points))
+    """Back to the home posture, with the object where it now is as an obstacle."""
+    world = chain.world(width_m, obstacle=transform_points(poses.object_motion, chain.target_points))
     path = chain.free(Planner(world, chain.limits), q_start, chain.home, "path home")
     return chain.approved([path], world, q_start, "home")
 
@@ -204,6 +215,6 @@ def _home(chain: Chain, poses: ContactPoses, width_m: float, q_start: np.ndarray
 def plan_manipulation(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     if poses.mode == "grasp":
         return plan_grasp(chain, poses)
-    if poses.mode == "push":
+    if poses.mode in ("push", "hinge"):
         return plan_push(chain, poses)
     raise StageError(f"unknown contact mode {poses.mode!r}")

@@ -229,8 +229,9 @@ class PipelineStages:
         mask1 = detections[0].mask
         ctx.record.image("mask_after", mask1)
         frame0, mask0 = ctx.frame0, ctx.goal.mask_init
+        anchor = getattr(ctx.goal, "mask_anchor", None)  # a hinged part: measured as a turn about it, like its goal
         inp = GroundingInput(
-            frame0.rgb, frame0.depth, mask0, frame1.rgb, frame1.depth, "depth", mask1, frame0.intrinsics
+            frame0.rgb, frame0.depth, mask0, frame1.rgb, frame1.depth, "depth", mask1, frame0.intrinsics, anchor
         )
         achieved = ground(
             inp, self._features_backend(ctx), ctx.profile.pipeline.grounding, T_base_camera=frame0.T_base_camera
