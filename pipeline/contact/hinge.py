@@ -116,5 +116,6 @@ def arc_candidates(
             poses.append(T)
         poses[-1][2, 3] += cfg.hinge_end_lift_m
         centred = 1.0 - abs(lateral)
-        out.append(Candidate("hinge", poses[0], 0.0, 1.0, 1.0, centred, tuple(poses[1:-1]), poses[-1], back_off))
+        down = float(np.clip(-R_tcp[2, 2], 0.0, 1.0))
+        out.append(Candidate("hinge", poses[0], 0.0, 1.0, down, centred, tuple(poses[1:-1]), poses[-1], back_off))
     return out, {}
