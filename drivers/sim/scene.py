@@ -288,10 +288,21 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
             )
         ):
             _geom(body, o, 1 + k, mat, type="box", size=_f((hx, hy, sz / 2)), pos=_f((px, py, sz / 2)))
-        # lid hinged along the back (-x) top edge; angle 0 = closed, positive opens upward
+        # lid hinged along the back (-x) top edge; angle 0 = closed, positive opens upward. The hinge is stiff like
+        # a real one (friction 0.01 N m, about twice the 50 g lid's weight torque 10 deg past upright): an open lid
+        # stays where it was left, one pushed well past upright falls shut
         lid = ET.SubElement(body, "body", name=f"{o.name}_lid", pos=_f((-sx / 2, 0, sz)))
         ET.SubElement(
-            lid, "joint", name=f"{o.name}_hinge", type="hinge", axis="0 -1 0", range="0 1.92", damping="0.05", ref="0"
+            lid,
+            "joint",
+            name=f"{o.name}_hinge",
+            type="hinge",
+            axis="0 -1 0",
+            range="0 1.92",
+            damping="0.05",
+            frictionloss="0.02",
+            solreffriction="0.004 1",
+            ref="0",
         )
         lid_rgb = COLORS[o.lid_color] if o.lid_color else tuple(0.8 * c for c in COLORS[o.color])
         ET.SubElement(asset, "material", name=f"mat_{o.name}_lid", rgba=_f((*lid_rgb, 1)))
