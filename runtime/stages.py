@@ -17,7 +17,8 @@ import numpy as np
 
 from runtime.context import RunContext, StageError, StageUnavailable, Verification
 from runtime.messages import PlanSummary
-from runtime.verify import compare, object_centre, rotation_deg
+from runtime.verify import compare, object_centre, revolution_axis, rotation_deg
+from safety.geometry import transform_points
 
 log = logging.getLogger(__name__)
 
@@ -240,6 +241,9 @@ class PipelineStages:
         if not achieved.ok:
             return Verification(False, f"could not measure the achieved motion: {achieved.reason}")
         points = frame0.intrinsics.unproject_depth_image(frame0.depth)[mask0 & np.isfinite(frame0.depth)]
+        T_camera_base = np.linalg.inv(frame0.T_base_camera)
+        axis = None if anchor is not None else revolution_axis(transform_points(frame0.T_base_camera, points))
+        centre = object_centre(points) if axis is None else transform_points(T_camera_base, axis[None])[0]
         goal = ctx.motion
         cfg = ctx.profile.runtime
         return compare(
@@ -247,10 +251,11 @@ class PipelineStages:
             goal.t,
             achieved.R,
             achieved.t,
-            object_centre(points),
+            centre,
             frame0.T_base_camera[:3, :3],
             cfg.verify_position_tol_m,
             cfg.verify_rotation_tol_deg,
+            twist_visible=axis is None,
         )
 
 

@@ -13,7 +13,7 @@ from runtime.context import StageUnavailable
 from runtime.record import RunRecord
 from runtime.stages import require
 from runtime.states import State, StateMachine
-from runtime.verify import compare
+from runtime.verify import compare, revolution_axis
 
 
 def yaw(deg: float) -> np.ndarray:
@@ -45,6 +45,45 @@ def test_turn_is_judged_only_when_the_goal_turns():
     assert free.ok and free.details["twist_error_deg"] == pytest.approx(40) and not free.details["twist_judged"]
     wrong = compare(yaw(90), about_centre(yaw(90), c), yaw(60), about_centre(yaw(60), c), c, CAM, 0.03, 15.0)
     assert not wrong.ok and "turned 30.0 deg off" in wrong.reason
+
+
+def test_twist_of_a_body_of_revolution_is_not_judged():
+    c = np.array([0.0, 0.0, 0.8])
+    args = (yaw(90), about_centre(yaw(90), c), yaw(20), about_centre(yaw(20), c), c, CAM, 0.03, 15.0)
+    assert not compare(*args).ok
+    ball = compare(*args, twist_visible=False)
+    assert ball.ok and not ball.details["twist_judged"] and ball.details["twist_error_deg"] == pytest.approx(70)
+
+
+def test_revolution_axis_finds_a_ball_and_an_upright_can_but_not_a_box():
+    rng = np.random.default_rng(0)
+    eye = np.array([1.1, 0.0, 0.8])  # the sim camera's position
+
+    def seen(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
+        """The points of a convex body facing the eye, with 0.8 mm depth-like noise."""
+        front = points[np.einsum("ij,ij->i", points - centre, eye - points) > 0]
+        return front + rng.normal(0, 0.0008, front.shape)
+
+    ball_centre = np.array([0.45, -0.12, 0.032])
+    ball = ball_centre + 0.032 * Rotation.random(4000, random_state=1).apply([1.0, 0.0, 0.0])
+    axis = revolution_axis(seen(ball, ball_centre))
+    assert axis is not None and np.linalg.norm(axis[:2] - ball_centre[:2]) < 0.003
+    theta, z = rng.uniform(0, 2 * np.pi, 3000), rng.uniform(0, 0.11, 3000)
+    can_centre = np.array([0.6, 0.1, 0.055])
+    can = np.column_stack([0.6 + 0.03 * np.cos(theta), 0.1 + 0.03 * np.sin(theta), z])
+    axis = revolution_axis(seen(can, can_centre))
+    assert axis is not None and np.linalg.norm(axis[:2] - can_centre[:2]) < 0.003
+    u, v = rng.uniform(-0.025, 0.025, (2, 3000))
+    half = np.full_like(u, 0.025)
+    faces = np.concatenate(
+        [np.column_stack([u, v, half])]
+        + [np.column_stack([s * half, u, v]) for s in (1, -1)]
+        + [np.column_stack([u, s * half, v]) for s in (1, -1)]
+    )
+    cube_centre = np.array([0.5, 0.0, 0.025])
+    cube = Rotation.from_euler("z", 30, degrees=True).apply(faces) + cube_centre  # a 5 cm cube turned 30 deg
+    assert revolution_axis(seen(cube, cube_centre)) is None
+    assert revolution_axis(np.zeros((5, 3))) is None
 
 
 def test_tilt_is_judged_when_the_goal_tilts_in_the_base_frame():
