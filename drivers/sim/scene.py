@@ -33,6 +33,7 @@ COLORS: dict[str, tuple[float, float, float]] = {
 }
 OBJECT_CONTACT = {"contype": "1", "conaffinity": "3"}
 OBJECT_FRICTION = "1.0 0.01 0.001"
+SPHERE_FRICTION = "1.0 0.01 0.003"  # sliding, torsional, rolling [m]: a tomato rolls only a little
 
 
 class SceneError(ValueError):
@@ -178,7 +179,11 @@ def _material(asset: ET.Element, o: SceneObject) -> str:
 
 def _geom(body: ET.Element, o: SceneObject, index: int, material: str, **attrs: str) -> None:
     ET.SubElement(
-        body, "geom", name=f"{o.name}_g{index}", material=material, friction=OBJECT_FRICTION, **OBJECT_CONTACT, **attrs
+        body,
+        "geom",
+        {"name": f"{o.name}_g{index}", "material": material, "friction": OBJECT_FRICTION},
+        **OBJECT_CONTACT,
+        **attrs,
     )
 
 
@@ -235,7 +240,19 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
         else:
             _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, sz / 2)), pos=_f((0, 0, sz / 2)), mass=mass)
     elif o.kind == "sphere":
-        _geom(body, o, 0, mat, type="sphere", size=_f(o.radius_m), pos=_f((0, 0, o.radius_m)), mass=mass)
+        # rolling resistance like a soft fruit's (an ideal ball released anywhere rolls on for ever)
+        _geom(
+            body,
+            o,
+            0,
+            mat,
+            type="sphere",
+            size=_f(o.radius_m),
+            pos=_f((0, 0, o.radius_m)),
+            mass=mass,
+            condim="6",
+            friction=SPHERE_FRICTION,
+        )
     elif o.kind in ("cylinder", "plate", "bottle"):
         r = o.radius_m
         h = o.height_m or {"cylinder": 0.1, "plate": 0.015, "bottle": 0.22}[o.kind]
@@ -289,8 +306,8 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
         ):
             _geom(body, o, 1 + k, mat, type="box", size=_f((hx, hy, sz / 2)), pos=_f((px, py, sz / 2)))
         # lid hinged along the back (-x) top edge; angle 0 = closed, positive opens upward. The hinge is stiff like
-        # a real one (friction 0.01 N m, about twice the 50 g lid's weight torque 10 deg past upright): an open lid
-        # stays where it was left, one pushed well past upright falls shut
+        # a real one (friction 0.02 N m, four times the 50 g lid's weight torque 10 deg past upright): an open lid
+        # stays where it was left, one pushed nearly shut falls shut
         lid = ET.SubElement(body, "body", name=f"{o.name}_lid", pos=_f((-sx / 2, 0, sz)))
         ET.SubElement(
             lid,
