@@ -44,7 +44,7 @@ def capture(
 
     profile = _load(config)
     with open_devices(profile) as devices:
-        frame = devices.camera.read().with_extrinsics(devices.T_base_camera)
+        frame = devices.capture()
     for path in save_frame(frame, out):
         typer.echo(f"wrote {path}")
 

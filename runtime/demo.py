@@ -75,7 +75,7 @@ def run_demo(profile: Profile, out_dir: Path) -> list[Path]:
                 if report.status != "completed":
                     raise DemoRefused(f"move to {name}: {report.status}: {report.reason}")
                 time.sleep(0.3)  # settle before the picture
-                frame = dev.camera.read().with_extrinsics(dev.T_base_camera)
+                frame = dev.capture()
                 saved += save_frame(frame, out_dir / f"{len(saved) // 3:02d}_{name}")
                 progress.advance(task)
     return saved

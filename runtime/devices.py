@@ -1,9 +1,14 @@
-"""Open the devices a profile names, all or nothing, and find T_base_camera for the captures."""
+"""Open the devices a profile names, all or nothing, and capture frames with the camera pose they were taken from.
+
+The camera pose comes from the hand-eye calibration: fixed (eye-to-hand), or carried by the arm (eye-in-hand:
+T_base_flange at the capture, from the measured joints, times T_flange_camera; the arm must hold still while the
+frame is taken). On the sim without a calibration file it is the simulated camera's true pose.
+"""
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 
@@ -11,13 +16,22 @@ import numpy as np
 
 from calibration.store import load_calibration
 from drivers.interfaces import Arm, Camera, Gripper
+from drivers.types import RGBDFrame
 from runtime.config import Profile
 
 log = logging.getLogger(__name__)
 
+STILL_RAD = 1e-3  # eye-in-hand: the largest joint change between before and after a frame that counts as still
+
+CameraPose = Callable[[np.ndarray], np.ndarray]  # measured joints -> T_base_camera
+
 
 class DeviceSetupError(RuntimeError):
     pass
+
+
+class CaptureError(RuntimeError):
+    """A frame whose camera pose is not known (the arm carrying the camera moved while it was taken)."""
 
 
 @dataclass
@@ -25,8 +39,23 @@ class Devices:
     camera: Camera
     arm: Arm
     gripper: Gripper
-    T_base_camera: np.ndarray | None  # None only when opened with_extrinsics=False (hand-eye calibration)
+    camera_pose: CameraPose | None  # None only when opened with_extrinsics=False (hand-eye calibration)
     world: object | None = None  # the SimWorld on the sim profile (ground truth for tests and verification)
+    moving_camera: bool = False  # eye-in-hand: the pose depends on the arm's joints
+
+    def capture(self, timeout_s: float | None = None) -> RGBDFrame:
+        """One RGB-D frame with T_base_camera as it was when the frame was taken."""
+        if self.camera_pose is None:
+            raise DeviceSetupError("devices opened without camera extrinsics (hand-eye calibration mode)")
+        q_before = self.arm.read_state().q
+        frame = self.camera.read() if timeout_s is None else self.camera.read(timeout_s)
+        q_after = self.arm.read_state().q
+        moved = float(np.max(np.abs(q_after - q_before)))
+        if self.moving_camera and moved > STILL_RAD:
+            raise CaptureError(
+                f"the arm carrying the camera moved {moved:.4f} rad while the frame was taken (still: <= {STILL_RAD})"
+            )
+        return frame.with_extrinsics(self.camera_pose(q_after))
 
 
 def _sim_devices(profile: Profile) -> tuple[Camera, Arm, Gripper, object]:
@@ -52,13 +81,12 @@ def _hardware_devices(profile: Profile) -> tuple[Camera, Arm, Gripper, None]:
     return FemtoBolt(profile.camera), arm, XArmGripper(arm), None
 
 
-def camera_extrinsics(profile: Profile, world: object | None) -> np.ndarray:
-    """T_base_camera from the calibration file, or on the sim without one, the simulated camera's true pose."""
+def camera_extrinsics(profile: Profile, world: object | None) -> tuple[CameraPose, bool]:
+    """(joints -> T_base_camera, whether it depends on the joints) from the calibration file, or on the sim without
+    one, the simulated camera's true pose."""
     cal = profile.calibration
     if cal.file is not None:
         calibration = load_calibration(cal.file)
-        if calibration.mode != "eye_to_hand":
-            raise DeviceSetupError(f"{cal.file}: captures need an eye-to-hand calibration, got {calibration.mode}")
         if calibration.age_days() > cal.max_age_days:
             log.warning(
                 "calibration %s is %.0f days old (limit %.0f): recalibrate",
@@ -66,9 +94,15 @@ def camera_extrinsics(profile: Profile, world: object | None) -> np.ndarray:
                 calibration.age_days(),
                 cal.max_age_days,
             )
-        return calibration.matrix
+        T = calibration.matrix
+        if calibration.mode == "eye_to_hand":
+            return (lambda q: T.copy()), False
+        from safety.robot_model import RobotModel
+
+        robot = RobotModel()
+        return (lambda q: robot.frame_pose(q, robot.spec.flange_link) @ T), True
     if world is not None:
-        return world.camera_pose()
+        return (lambda q: world.camera_pose()), world.T_flange_camera is not None
     raise DeviceSetupError("calibration.file is not set: run `goalvla calibrate hand-eye` and set it in the profile")
 
 
@@ -78,13 +112,13 @@ def open_devices(profile: Profile, *, with_extrinsics: bool = True) -> Iterator[
     with_extrinsics=False skips the calibration lookup (for the calibration itself)."""
     sim = profile.robot.kind == "sim" and profile.camera.kind == "sim"
     camera, arm, gripper, world = _sim_devices(profile) if sim else _hardware_devices(profile)
-    T_base_camera = camera_extrinsics(profile, world) if with_extrinsics else None
+    camera_pose, moving = camera_extrinsics(profile, world) if with_extrinsics else (None, False)
     with ExitStack() as stack:
         for device in (arm, gripper, camera):
             device.connect()
             stack.callback(device.close)
         try:
-            yield Devices(camera, arm, gripper, T_base_camera, world)
+            yield Devices(camera, arm, gripper, camera_pose, world, moving)
         finally:
             if world is not None:
                 stack.callback(world.stop)

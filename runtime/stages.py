@@ -22,6 +22,7 @@ from safety.geometry import transform_points
 
 log = logging.getLogger(__name__)
 
+CAMERA_STILL_MM, CAMERA_STILL_DEG = 2.0, 0.2  # verification needs both captures from one camera pose
 MAX_CONTACTS = 3  # ranked contact decisions tried before planning gives up
 PLAN_ATTEMPTS = 2  # planning attempts per contact (OMPL is randomised)
 
@@ -50,7 +51,7 @@ class PipelineStages:
     # -- capture ------------------------------------------------------------------------------------------
     def _capture(self, ctx: RunContext, name: str):
         dev = ctx.devices
-        frame = dev.camera.read(ctx.profile.camera.read_timeout_s).with_extrinsics(dev.T_base_camera)
+        frame = dev.capture(ctx.profile.camera.read_timeout_s)
         ctx.record.image(name, frame.rgb)
         np.savez_compressed(
             ctx.record.dir / f"{name}.npz",
@@ -222,6 +223,13 @@ class PipelineStages:
         if ctx.devices.world is not None:
             ctx.extras["truth_after"] = _object_poses(ctx.devices.world)
             ctx.record.note(sim_truth=_truth(ctx))
+        moved_mm, moved_deg = camera_moved(ctx.frame0.T_base_camera, frame1.T_base_camera)
+        if moved_mm > CAMERA_STILL_MM or moved_deg > CAMERA_STILL_DEG:
+            return Verification(
+                False,
+                f"the camera moved {moved_mm:.0f} mm / {moved_deg:.1f} deg between the captures: verification compares "
+                "two views from one pose (a camera on the arm must capture again where it first did)",
+            )
         if self._segmenter is None:
             self._segmenter = build_segmenter(ctx.profile.pipeline)
         detections = self._segmenter.segment(frame1.rgb, ctx.goal.target)
@@ -257,6 +265,11 @@ class PipelineStages:
             cfg.verify_rotation_tol_deg,
             twist_visible=axis is None,
         )
+
+
+def camera_moved(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
+    """(mm, deg) between two camera poses."""
+    return 1000 * float(np.linalg.norm(T_a[:3, 3] - T_b[:3, 3])), rotation_deg(T_a[:3, :3].T @ T_b[:3, :3])
 
 
 def _robot_spec():

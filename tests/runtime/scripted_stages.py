@@ -40,7 +40,7 @@ class ScriptedStages:
 
     def capture(self, ctx: RunContext) -> None:
         dev = ctx.devices
-        ctx.frame0 = dev.camera.read(ctx.profile.camera.read_timeout_s).with_extrinsics(dev.T_base_camera)
+        ctx.frame0 = dev.capture(ctx.profile.camera.read_timeout_s)
         ctx.record.image("capture", ctx.frame0.rgb)
 
     def reason(self, ctx: RunContext) -> None:

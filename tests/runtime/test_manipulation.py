@@ -28,7 +28,7 @@ pytestmark = pytest.mark.slow
 def scene(sim_profile_with, tmp_path):
     profile = sim_profile_with({"sim": {"realtime": True}})
     with open_devices(profile) as dev:
-        frame = dev.camera.read().with_extrinsics(dev.T_base_camera)
+        frame = dev.capture()
         mask = dev.camera.object_masks()["red_block"]
         ctx = RunContext(
             profile,

@@ -20,7 +20,7 @@ from pipeline.perception.depth import RelativeDepth
 @pytest.fixture
 def sim(stepped_profile, tmp_path):
     with open_devices(stepped_profile) as dev:
-        frame = dev.camera.read().with_extrinsics(dev.T_base_camera)
+        frame = dev.capture()
         yield stepped_profile, dev, frame, dev.camera.object_masks(), RunRecord(tmp_path / "run", "r")
 
 
