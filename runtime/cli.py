@@ -212,6 +212,32 @@ def estop(
 
 
 @app.command()
+def reset(
+    config: ConfigOption = DEFAULT_CONFIG,
+    yes: Annotated[bool, typer.Option("--yes", help="the cell has been checked; do not ask")] = False,
+) -> None:
+    """Release a lasting e-stop latch (runtime.estop_latch_file) after someone checked the cell.
+
+    Exit 0 released or nothing latched, 1 not confirmed, 2 no latch file configured."""
+    from runtime.estop_latch import EStopLatch
+
+    path = _load(config).runtime.estop_latch_file
+    if path is None:
+        _fail(f"{config}: runtime.estop_latch_file is not set; an e-stop lasts only as long as its runtime")
+    latch = EStopLatch(path)
+    latched = latch.engaged()
+    if latched is None:
+        typer.echo(f"no e-stop latched ({path})")
+        raise typer.Exit(0)
+    typer.echo(latched.describe())
+    if not (yes or typer.confirm("Has someone checked the cell and is it safe to run again?", default=False)):
+        typer.echo("still latched")
+        raise typer.Exit(1)
+    latch.release("goalvla reset")
+    typer.echo("released: the next run may start")
+
+
+@app.command()
 def console(
     config: ConfigOption = DEFAULT_CONFIG,
     port: Annotated[int, typer.Option(help="HTTP port of the operator page")] = 8080,

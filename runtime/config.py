@@ -23,6 +23,7 @@ PATH_KEYS: tuple[KeyPath, ...] = (
     ("calibration", "file"),
     ("sim", "scenes_dir"),
     ("runtime", "runs_dir"),
+    ("runtime", "estop_latch_file"),
     *((("runtime", "zenoh", "tls", k)) for k in ("root_ca_certificate", "certificate", "private_key")),
 )
 
@@ -84,6 +85,10 @@ class RuntimeConfig(StrictModel):
     )
     verify_position_tol_m: float = Field(default=0.03, gt=0, description="achieved vs goal object translation")
     verify_rotation_tol_deg: float = Field(default=15.0, gt=0, description="achieved vs goal object rotation")
+    estop_latch_file: Path | None = Field(
+        default=None,
+        description="an e-stop writes it and later runs start ESTOPPED until a reset removes it (set on real robots)",
+    )
 
 
 class Profile(StrictModel):

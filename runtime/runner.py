@@ -27,9 +27,10 @@ from runtime.confirm import ConfirmGate
 from runtime.context import RunContext, StageError, Stages
 from runtime.devices import Devices
 from runtime.estop import EStopNode
+from runtime.estop_latch import EStopLatch
 from runtime.messages import PlanSummary
 from runtime.record import RunRecord, publish_image, to_bgr
-from runtime.states import TERMINAL, State, StateMachine, TransitionError
+from runtime.states import TERMINAL, State, StateMachine, Transition, TransitionError
 from runtime.status import StatusPublisher
 from runtime.supervisor import Supervisor
 
@@ -93,6 +94,12 @@ class Runtime:
             else None
         )
         self.arm_halted = False  # the last run stopped the arm mid-way: Reset before the next run
+        self.latch = EStopLatch(cfg.estop_latch_file) if cfg.estop_latch_file is not None else None
+        if self.latch is not None:
+            latched = self.latch.engaged()
+            if latched is not None:
+                self.machine.estop(f"{latched.describe()}; check the cell, then reset (goalvla reset, or the console)")
+            self.machine.add_listener(self._latch_estop)
         # One long-lived thread runs every stage: device handles that are bound to a thread (the sim camera's GL
         # context) stay on it, and the run loop only waits on it, so it can give up on a stuck stage.
         self._stage_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="stage")
@@ -121,9 +128,15 @@ class Runtime:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _latch_estop(self, transition: Transition) -> None:
+        if transition.state == State.ESTOPPED and self.latch.engaged() is None:
+            self.latch.engage(transition.reason, transition.stamp_s)
+
     def reset(self, source: str = "operator") -> None:
         """Leave ESTOPPED/FAILED after a person checked the cell: clears controller faults, back to IDLE."""
         self.machine.reset(f"reset by {source}")
+        if self.latch is not None:
+            self.latch.release(source)
         self.devices.arm.clear_fault()
         self.arm_halted = False
         self.status.event(f"reset by {source}")

@@ -242,3 +242,25 @@ def test_stalled_driver_call_cannot_hold_the_run(session, tmp_path):
     assert result.status == State.FAILED and "EXECUTING took too long" in result.reason
     assert stages.streamed == 0 and rt.supervisor.stop_count >= 1
     assert_still(devices)
+
+
+def test_an_estop_outlives_its_runtime_until_a_reset(session, tmp_path):
+    latch = tmp_path / "estop_latched.json"
+    stages = ScriptedStages(move_speed_rad_s=0.12)
+    rt, devices = session(stages, runtime={"estop_latch_file": str(latch)})
+    th, box = run_async(rt, tmp_path)
+    assert stages.executing.wait(10)
+    rt.supervisor.estop("operator pressed E-STOP")
+    th.join(5)
+    assert box["result"].status == State.ESTOPPED and latch.exists()
+    assert_still(devices)
+    # the next runtime (a new one-shot run) starts from the latch
+
+    later = ScriptedStages()
+    rt2, _ = session(later, runtime={"estop_latch_file": str(latch)})
+    assert rt2.machine.state == State.ESTOPPED and "operator pressed E-STOP" in rt2.machine.reason
+    refused = rt2.run("move the arm", tmp_path / "refused")
+    assert refused.status == State.ESTOPPED and "check the cell" in refused.reason and later.streamed == 0
+    rt2.reset("test")
+    assert not latch.exists() and rt2.machine.state == State.IDLE
+    assert rt2.run("move the arm", tmp_path / "after_reset").ok
