@@ -4,10 +4,16 @@ Two rules, nothing else:
 1. Kinematic neighbours are skipped: primitives on the same body, on bodies joined by one joint (parent and
    child), or on sibling bodies (the two fingers, whose gap the gripper itself controls). Their shapes overlap at
    the joint by construction.
-2. A pair is skipped when it cannot come close: in SAMPLES random configurations over the full joint ranges and
-   gripper stroke (uniform, with each joint pinned to a limit in 20 % of samples so the range corners are
-   visited) its smallest unpadded distance stayed above 2 * padding + SAMPLING_MARGIN_M. The margin covers what
-   sampling can miss between samples. The per-pair minima live in self_collision_distances.yaml; regenerate with
+2. A pair is skipped when it provably cannot come within 2 * padding: its certified lower bound on the distance
+   over every configuration (all joint ranges and the gripper stroke) exceeds that. The bound comes from branch
+   and bound over the joints between the two shapes: moving joint k by dq moves the far shape by at most
+   L_k |dq| (L_k: the link lengths from joint k to the shape plus the shape's reach; 1 for a finger slide), so
+   a box of configurations whose centre is at distance d keeps every configuration above
+   d - sum_k L_k * half-width_k. The box with the lowest bound is split along its widest L-weighted side until
+   that slack is below CERTIFY_TOLERANCE_M (or CERTIFY_MAX_BOXES were made); the lowest bound of all boxes is a
+   lower bound everywhere. Random sampling (SAMPLES configurations, joints pinned to a limit in 20 % of them)
+   runs first: it finds the pairs that do touch, which are always checked, and a sampled minimum is kept beside
+   each bound as a cross-check. Both live in self_collision_distances.yaml; regenerate with
    `python -m safety.self_collision` whenever the robot description changes (a test compares the file against
    the description's primitive names).
 """
@@ -15,6 +21,8 @@ Two rules, nothing else:
 from __future__ import annotations
 
 import argparse
+import heapq
+import math
 from itertools import combinations
 from pathlib import Path
 
@@ -27,8 +35,9 @@ from safety.geometry import Primitive, robot_primitives
 from safety.robot_model import RobotModel
 
 DISTANCES_FILE = Path(__file__).with_name("self_collision_distances.yaml")
-SAMPLING_MARGIN_M = 0.02
 SAMPLES = 300_000
+CERTIFY_TOLERANCE_M = 0.005
+CERTIFY_MAX_BOXES = 300_000
 
 
 def _body(robot: RobotModel, prim: Primitive) -> int:
@@ -46,23 +55,82 @@ def candidate_pairs(robot: RobotModel, prims: list[Primitive]) -> list[tuple[int
     return [(i, j) for i, j in combinations(range(len(prims)), 2) if not neighbours(robot, prims[i], prims[j])]
 
 
-def load_min_distances(path: Path = DISTANCES_FILE) -> dict[tuple[str, str], float]:
+def load_certified_distances(path: Path = DISTANCES_FILE) -> dict[tuple[str, str], float | None]:
+    """Certified lower bound per candidate pair (None: the pair can touch, or was not certified)."""
     with open(path) as f:
         doc = yaml.safe_load(f)
-    return {(row[0], row[1]): float(row[2]) for row in doc["pairs"]}
+    return {(row[0], row[1]): (None if row[3] is None else float(row[3])) for row in doc["pairs"]}
 
 
 def checked_self_pairs(robot: RobotModel, prims: list[Primitive], padding_m: float) -> list[tuple[int, int]]:
     """Index pairs (into prims) that the self-collision check must test at this padding. A pair missing from the
-    distances file (description changed) is always tested."""
-    minima = load_min_distances()
-    threshold = 2 * padding_m + SAMPLING_MARGIN_M
+    distances file (description changed) or without a certified bound is always tested."""
+    bounds = load_certified_distances()
     out = []
     for i, j in candidate_pairs(robot, prims):
-        d = minima.get((prims[i].name, prims[j].name), minima.get((prims[j].name, prims[i].name)))
-        if d is None or d <= threshold:
+        d = bounds.get((prims[i].name, prims[j].name), bounds.get((prims[j].name, prims[i].name)))
+        if d is None or d <= 2 * padding_m:
             out.append((i, j))
     return out
+
+
+def certified_min_distance(
+    robot: RobotModel,
+    a: Primitive,
+    b: Primitive,
+    tolerance_m: float = CERTIFY_TOLERANCE_M,
+    max_boxes: int = CERTIFY_MAX_BOXES,
+) -> float:
+    """A lower bound on the unpadded distance between two robot shapes over every configuration (rule 2)."""
+    m = robot.model
+    gmodel = pin.GeometryModel()
+    ia, ib = add_primitive(gmodel, robot, a), add_primitive(gmodel, robot, b)
+    gmodel.addCollisionPair(pin.CollisionPair(ia, ib))
+    gdata, data = gmodel.createData(), m.createData()
+    ends = {ia: gmodel.geometryObjects[ia].parentJoint, ib: gmodel.geometryObjects[ib].parentJoint}
+    supports = {g: set(m.supports[j]) for g, j in ends.items()}
+    joints = sorted((supports[ia] ^ supports[ib]) - {0})  # the joints that move one shape relative to the other
+    lo, hi, lipschitz = [], [], []
+    gripper = robot.spec.gripper
+    for k in joints:
+        g = ib if k in supports[ib] else ia
+        if m.joints[k].nv == 1 and m.joints[k].shortname().startswith("JointModelP"):  # a finger slide
+            lo.append(gripper.min_width_m / 2)
+            hi.append(gripper.max_width_m / 2)
+            lipschitz.append(1.0)
+            continue
+        qk = m.idx_qs[k]
+        lower = float(m.lowerPositionLimit[qk])
+        lo.append(lower)
+        hi.append(min(float(m.upperPositionLimit[qk]), lower + 2 * math.pi))  # a turn repeats every 2 pi
+        below = [j for j in m.supports[ends[g]] if j > k and k in m.supports[j]]
+        arm = sum(float(np.linalg.norm(m.jointPlacements[j].translation)) for j in below)
+        reach = float(np.linalg.norm(gmodel.geometryObjects[g].placement.translation))
+        lipschitz.append(arm + reach + (a if g == ia else b).bounding_radius())
+    L = np.array(lipschitz)
+    index = [m.idx_qs[k] for k in joints]
+    q = pin.neutral(m)
+
+    def bound(box_lo: np.ndarray, box_hi: np.ndarray) -> float:
+        q[index] = (box_lo + box_hi) / 2
+        pin.updateGeometryPlacements(m, data, gmodel, gdata, q)
+        return pin.computeDistance(gmodel, gdata, 0).min_distance - float(L @ (box_hi - box_lo)) / 2
+
+    start_lo, start_hi = np.array(lo), np.array(hi)
+    boxes = [(bound(start_lo, start_hi), 0, start_lo, start_hi)]
+    made = 1
+    while True:
+        lowest, _, box_lo, box_hi = heapq.heappop(boxes)
+        width = L * (box_hi - box_lo)
+        if width.sum() / 2 <= tolerance_m or made >= max_boxes:
+            return float(lowest)  # every other box's bound is at least this
+        k = int(np.argmax(width))
+        mid = (box_lo[k] + box_hi[k]) / 2
+        left_hi, right_lo = box_hi.copy(), box_lo.copy()
+        left_hi[k] = right_lo[k] = mid
+        for half_lo, half_hi in ((box_lo, left_hi), (right_lo, box_hi)):
+            heapq.heappush(boxes, (bound(half_lo, half_hi), made, half_lo, half_hi))
+            made += 1
 
 
 def sample_configurations(robot: RobotModel, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -92,19 +160,28 @@ def measure_min_distances(robot: RobotModel, samples: int, seed: int) -> dict[tu
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description="Measure the closest approach of every non-neighbour pair.")
+    parser = argparse.ArgumentParser(description="Sample and certify the closest approach of every non-neighbour pair.")
     parser.add_argument("--samples", type=int, default=SAMPLES)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    minima = measure_min_distances(RobotModel(), args.samples, args.seed)
+    robot = RobotModel()
+    by_name = {p.name: p for p in robot_primitives(robot.spec)}
+    minima = measure_min_distances(robot, args.samples, args.seed)
+    rows = []
+    for (a, b), sampled in sorted(minima.items(), key=lambda kv: kv[1]):
+        certified = certified_min_distance(robot, by_name[a], by_name[b]) if sampled > 0 else None
+        rows.append([a, b, round(sampled, 5), None if certified is None else math.floor(certified * 1e5) / 1e5])
+        if certified is not None:
+            print(f"{a} / {b}: sampled {sampled:.4f} m, certified >= {certified:.4f} m")
     doc = {
-        "method": f"min unpadded distance over {args.samples} random configurations (seed {args.seed}); "
-        "see safety/self_collision.py",
+        "method": f"[a, b, min unpadded distance over {args.samples} random configurations (seed {args.seed}), "
+        "certified lower bound over all configurations or null when the pair can touch]; see "
+        "safety/self_collision.py",
         "samples": args.samples,
-        "pairs": [[a, b, round(d, 5)] for (a, b), d in sorted(minima.items(), key=lambda kv: kv[1])],
+        "pairs": rows,
     }
     DISTANCES_FILE.write_text(yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=120))
-    print(f"wrote {DISTANCES_FILE} ({len(minima)} pairs)")
+    print(f"wrote {DISTANCES_FILE} ({len(rows)} pairs)")
 
 
 if __name__ == "__main__":

@@ -10,10 +10,11 @@ from safety.collision import CollisionWorld
 from safety.config import SafetyConfig
 from safety.geometry import WORLD, Primitive, pose, robot_primitives
 from safety.self_collision import (
-    SAMPLING_MARGIN_M,
+    DISTANCES_FILE,
     candidate_pairs,
+    certified_min_distance,
     checked_self_pairs,
-    load_min_distances,
+    load_certified_distances,
     measure_min_distances,
 )
 
@@ -46,7 +47,7 @@ def test_unknown_backend_is_refused(robot):
 def test_distance_file_covers_exactly_the_candidate_pairs(robot):
     prims = robot_primitives(robot.spec)
     names = {frozenset((prims[i].name, prims[j].name)) for i, j in candidate_pairs(robot, prims)}
-    assert {frozenset(k) for k in load_min_distances()} == names
+    assert {frozenset(k) for k in load_certified_distances()} == names
 
 
 def test_neighbours_are_never_candidates(robot):
@@ -69,8 +70,27 @@ def test_excluded_pairs_stay_apart_in_fresh_samples(robot):
     checked = {frozenset((prims[i].name, prims[j].name)) for i, j in checked_self_pairs(robot, prims, pad)}
     fresh = measure_min_distances(robot, samples=3000, seed=12345)
     excluded = {k: d for k, d in fresh.items() if frozenset(k) not in checked}
-    assert excluded, "the sampled exclusion should skip some far-apart pairs"
-    assert min(excluded.values()) > 2 * pad + SAMPLING_MARGIN_M / 2
+    assert excluded, "the certified exclusion should skip some far-apart pairs"
+    assert min(excluded.values()) > 2 * pad
+
+
+def test_certified_bounds_lie_below_every_sampled_distance(robot):
+    import yaml
+
+    rows = yaml.safe_load(DISTANCES_FILE.read_text())["pairs"]
+    certified = [(a, b, sampled, bound) for a, b, sampled, bound in rows if bound is not None]
+    assert len(certified) >= 10 and all(bound <= sampled for _, _, sampled, bound in certified)
+    assert all(sampled <= 0.0 for _, _, sampled, bound in rows if bound is None)  # uncertified: they touch
+
+
+def test_certified_bound_is_recomputed_and_tight(robot):
+    """Branch and bound on a two-joint pair (wrist link 6 against a finger): below the true minimum, and close."""
+    prims = {p.name: p for p in robot_primitives(robot.spec)}
+    a, b = prims["link6/0"], prims["left_finger/knuckle"]
+    bound = certified_min_distance(robot, a, b)
+    sampled = measure_min_distances(robot, samples=4000, seed=99)[("link6/0", "left_finger/knuckle")]
+    assert bound <= sampled < bound + 0.012
+    assert bound == pytest.approx(load_certified_distances()[("link6/0", "left_finger/knuckle")], abs=1e-4)
 
 
 def test_more_padding_checks_more_pairs(robot):
