@@ -4,7 +4,7 @@ Two rules, nothing else:
 1. Kinematic neighbours are skipped: primitives on the same body, on bodies joined by one joint (parent and
    child), or on sibling bodies (the two fingers, whose gap the gripper itself controls). Their shapes overlap at
    the joint by construction.
-2. A pair is skipped when it provably cannot come within 2 * padding: its certified lower bound on the distance
+2. A pair is skipped when its padded shapes provably cannot touch: its certified lower bound on the distance
    over every configuration (all joint ranges and the gripper stroke) exceeds that. The bound comes from branch
    and bound over the joints between the two shapes: moving joint k by dq moves the far shape by at most
    L_k |dq| (L_k: the link lengths from joint k to the shape plus the shape's reach; 1 for a finger slide), so
@@ -62,14 +62,21 @@ def load_certified_distances(path: Path = DISTANCES_FILE) -> dict[tuple[str, str
     return {(row[0], row[1]): (None if row[3] is None else float(row[3])) for row in doc["pairs"]}
 
 
+def padding_reach(prim: Primitive, padding_m: float) -> float:
+    """How far the padded shape reaches beyond the shape: a box grown on each face reaches sqrt(3) x padding at
+    its corners, a cylinder sqrt(2) x at its rims, a capsule or sphere exactly the padding."""
+    return padding_m * {"box": math.sqrt(3.0), "cylinder": math.sqrt(2.0)}.get(prim.kind, 1.0)
+
+
 def checked_self_pairs(robot: RobotModel, prims: list[Primitive], padding_m: float) -> list[tuple[int, int]]:
-    """Index pairs (into prims) that the self-collision check must test at this padding. A pair missing from the
-    distances file (description changed) or without a certified bound is always tested."""
+    """Index pairs (into prims) that the self-collision check must test at this padding: all but those whose
+    certified distance exceeds what the padding adds to both shapes. A pair missing from the distances file
+    (description changed) or without a certified bound is always tested."""
     bounds = load_certified_distances()
     out = []
     for i, j in candidate_pairs(robot, prims):
         d = bounds.get((prims[i].name, prims[j].name), bounds.get((prims[j].name, prims[i].name)))
-        if d is None or d <= 2 * padding_m:
+        if d is None or d <= padding_reach(prims[i], padding_m) + padding_reach(prims[j], padding_m):
             out.append((i, j))
     return out
 

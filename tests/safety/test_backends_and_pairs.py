@@ -16,6 +16,7 @@ from safety.self_collision import (
     checked_self_pairs,
     load_certified_distances,
     measure_min_distances,
+    padding_reach,
 )
 
 
@@ -72,6 +73,18 @@ def test_excluded_pairs_stay_apart_in_fresh_samples(robot):
     excluded = {k: d for k, d in fresh.items() if frozenset(k) not in checked}
     assert excluded, "the certified exclusion should skip some far-apart pairs"
     assert min(excluded.values()) > 2 * pad
+
+
+def test_padding_reach_is_how_far_a_padded_shape_sticks_out():
+    """A box grown by p on each face sticks out sqrt(3) p at its corners, a cylinder sqrt(2) p at its rims."""
+    box = Primitive("box", WORLD, "box", (0.2, 0.2, 0.2))
+    corner = np.array(box.padded(0.05).size) / 2  # the padded box's corner
+    assert np.linalg.norm(corner - np.array(box.size) / 2) == pytest.approx(padding_reach(box, 0.05))
+    can = Primitive("can", WORLD, "cylinder", (0.1, 0.3))
+    radius, length = can.padded(0.05).size
+    rim_out = np.hypot(radius - can.size[0], (length - can.size[1]) / 2)
+    assert rim_out == pytest.approx(padding_reach(can, 0.05))
+    assert padding_reach(Primitive("cap", WORLD, "capsule", (0.05, 0.2)), 0.05) == pytest.approx(0.05)
 
 
 def test_certified_bounds_lie_below_every_sampled_distance(robot):
