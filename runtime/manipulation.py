@@ -160,7 +160,7 @@ def plan_grasp(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     to_pre = chain.free(Planner(before, chain.limits), chain.q0, q_pre, "path to the pre-grasp pose")
     approach = chain.approved([to_pre, GripperAction("open", OPEN_S, open_w)], before, chain.q0, "approach")
 
-    touching = chain.world(g.max_width_m)
+    touching = chain.world(open_w)  # the approach ended opening the fingers to open_w: no wider down to the grasp
     planner = Planner(touching, chain.limits)
     down = chain.line(planner, q_pre, poses.T_contact, "approach to the grasp")
     lift = chain.line(planner, down[-1], lifted(poses.T_contact, LIFT_M), "lift after the grasp")

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import threading
 import types
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -77,3 +78,21 @@ def test_unreachable_goal_is_refused_with_the_reason(scene):
     ctx, dev = scene
     with pytest.raises(StageError, match="IK solution"):
         plan_manipulation(Chain(ctx), grasp_poses(dev, np.array([1.5, 0.0, 0.0])))
+
+
+def test_the_descent_to_the_grasp_checks_the_fingers_at_the_opening_commanded(scene):
+    # a wall of points beside the block, along the closing axis: clear of the fingers opened to the block's width
+    # plus clearance (0.066 m), in the way of fully open ones (0.085 m); the gate judges what the gripper will do
+    ctx, dev = scene
+    chain = Chain(ctx)
+    poses = replace(grasp_poses(dev, np.array([0.0, 0.15, 0.0])), open_width_m=0.066)
+    T = poses.T_contact
+    side = -np.sign(T[1, 1]) * T[:3, 1]  # the side away from where the block is carried
+    grid = np.stack(np.meshgrid(np.linspace(-0.03, 0.03, 13), np.linspace(0.005, 0.045, 9)), -1).reshape(-1, 2)
+    wall = T[:3, 3] + 0.08 * side + grid[:, :1] * T[:3, 0]  # 8 cm out: in the octree cells the gate sees
+    wall[:, 2] = grid[:, 1]  # from the table up to just below the block's top
+    chain.points = np.vstack([chain.points, wall])
+    q_contact = chain.robot.ik(T, chain.q0).q
+    assert chain.world(0.085).in_collision(q_contact) and not chain.world(0.066).in_collision(q_contact)
+    plan = plan_manipulation(chain, poses)
+    assert plan.phase_names[1] == "grasp" and plan.phases[1].report.ok
