@@ -2,7 +2,7 @@
 
 What the runtime adds is the hand-over: the target's and the scene's points in the base frame (the Chain's, from
 the initial capture and the reasoning stage's mask), the mode the instruction asks for, and a model of the
-grasped object for the carry phase (its points' bounding box in the TCP frame at the grasp, symmetric about the
+grasped object for the carry phase (its points' bounding box in the TCP frame at the grasp, mirrored across the
 closing axis because the camera sees only the object's front).
 """
 
@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from runtime.context import RunContext, StageError
-from runtime.manipulation import Chain, ContactPoses
+from runtime.manipulation import LIFT_M, PLACE_CLEARANCE_M, Chain, ContactPoses
 from runtime.stages import require
+from safety.collision import CollisionWorld
 from safety.geometry import Primitive, transform_points
 
 MODES = {"push": "push", "close": "hinge"}  # instruction action -> contact mode (anything else: grasp)
@@ -31,13 +32,18 @@ def contact_mode(instruction: str) -> str:
 
 
 def held_box(points_base: np.ndarray, T_base_tcp: np.ndarray, tcp_link: str, name: str) -> Primitive:
-    """The grasped object as a box in the TCP frame: the points' extent, mirrored about the TCP's z axis."""
+    """The grasped object as a box in the TCP frame: the points' extent, mirrored about the TCP across the closing
+    axis (y) only. The fingers close on the object's middle along y, whose far side the camera may not see; along
+    the pads (x) the seen extent is the object's (its top is seen whole), and mirroring it there would give an
+    object grasped off its middle (a long bottle) a phantom end that, once the object is turned, reaches into the
+    table or the arm."""
     local = transform_points(np.linalg.inv(T_base_tcp), points_base)
-    half_xy = np.max(np.abs(local[:, :2]), axis=0)
+    x0, x1 = float(local[:, 0].min()), float(local[:, 0].max())
+    half_y = float(np.max(np.abs(local[:, 1])))
     z0, z1 = float(local[:, 2].min()), float(local[:, 2].max())
     T = np.eye(4)
-    T[2, 3] = (z0 + z1) / 2
-    return Primitive(f"held:{name}", tcp_link, "box", (2 * half_xy[0], 2 * half_xy[1], z1 - z0), T)
+    T[0, 3], T[2, 3] = (x0 + x1) / 2, (z0 + z1) / 2
+    return Primitive(f"held:{name}", tcp_link, "box", (x1 - x0, 2 * half_y, z1 - z0), T)
 
 
 def lowest_safe_tcp_height(ctx: RunContext, chain: Chain) -> float:
@@ -48,6 +54,14 @@ def lowest_safe_tcp_height(ctx: RunContext, chain: Chain) -> float:
     g = chain.robot.spec.gripper
     lowest = GripperBoxes(chain.robot, ctx.profile.safety.padding_m).lowest_z(T_down, g.min_width_m)
     return -lowest + TABLE_MARGIN_M
+
+
+def _turn_deg(T_a: np.ndarray | None, T_b: np.ndarray) -> float:
+    """The angle [deg] of the rotation between two motions (0 when T_a is None: the same motion)."""
+    if T_a is None:
+        return 0.0
+    cos = (np.trace(T_a[:3, :3] @ T_b[:3, :3].T) - 1.0) / 2.0
+    return round(float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))), 1)
 
 
 def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
@@ -63,6 +77,7 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
         update={
             "min_tcp_height_m": max(config.min_tcp_height_m, lowest_safe_tcp_height(ctx, chain)),
             "collision_padding_m": max(config.collision_padding_m, padding),
+            "place_lifts_m": (PLACE_CLEARANCE_M + padding, PLACE_CLEARANCE_M + padding + LIFT_M),  # as plan_grasp
         }
     )
     result = plan_contacts(
@@ -73,11 +88,21 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
         mode=mode,
         config=config,
         q_seed=chain.q0,
-        collision_world=None,  # the gate judges collisions on the whole plan (placement is lifted by a clearance)
+        # the gate's own scene (the table is the contact's table-height filter: a contact at the lowest safe height
+        # sits on the padded table's surface)
+        collision_world=CollisionWorld(chain.robot, ctx.profile.safety, points=chain.points, table=False),
         viewpoint=ctx.frame0.T_base_camera[:3, 3],
     )
     ctx.record.note(
-        contact={"mode": mode, "candidates": result.candidates, "plans": len(result.plans), "rejected": result.rejected}
+        contact={
+            "mode": mode,
+            "candidates": result.candidates,
+            "plans": len(result.plans),
+            "rejected": result.rejected,
+            # per ranked plan, how far its object motion turns from the grounded one (a body of revolution may be
+            # set down turned about its own axis, the same goal to the eye); 0 = as grounded
+            "turn_from_grounded_deg": [_turn_deg(plan.T_motion, ctx.motion.T_base) for plan in result.plans],
+        }
     )
     if not result.ok:
         raise StageError(f"no feasible {mode}: {result.reason}")
@@ -99,7 +124,7 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
                 open_w,
                 f"pipeline.contact #{rank} score {plan.score:.2f}",
                 plan.via,
-                ctx.motion.T_base,
+                ctx.motion.T_base if plan.T_motion is None else plan.T_motion,
             )
         )
     return out

@@ -3,13 +3,21 @@
 Modes: grasp, push (straight, horizontal) and hinge (an arc push turning a hinged part, hinge.py).
 Filters, in order of cost: orientation cone; gripper boxes against the scene (target excluded) and the table;
 along an arc and at the goal, the gripper, and the placed object, against the scene; IK (the safety model's) of
-the pre-contact, contact, arc and goal poses, optionally collision-free in a safety CollisionWorld. Every
-rejection is counted under a readable reason so a refusal says what ruled the candidates out.
+the pre-contact, contact, arc and goal poses (a grasp's goal with the poses config.place_lifts_m above it that
+the object is set down from), optionally collision-free in a safety CollisionWorld. Every rejection is counted
+under a readable reason so a refusal says what ruled the candidates out.
+
+Two freedoms the candidates do not spell out are used when a candidate's IK fails. The parallel gripper looks the
+same after a half turn about its approach axis, but the wrist does not (link7 is off its axis): one twin may
+fold link5 onto link7 where the other is free. And a grasped body of revolution (symmetry.py) reaches the same
+goal turned about its own axis, a turn the images cannot show, so the goal is also tried turned about that axis;
+the plan then carries the object motion it realises (ContactPlan.T_motion).
 """
 
 from __future__ import annotations
 
 from collections import Counter
+from dataclasses import replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -17,12 +25,15 @@ from scipy.spatial import cKDTree
 from pipeline.contact.gripper import GripperBoxes
 from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
 from pipeline.contact.sampling import Candidate, estimate_normals, grasp_candidates, push_candidates
+from pipeline.contact.symmetry import revolution_axis
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from safety.geometry import transform_points
 from safety.ik import IKSettings
 from safety.robot_model import RobotModel
 
 IK_SETTINGS = IKSettings(restarts=6, max_iterations=80)
+HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the TCP's approach axis: the same grasp, the other wrist
+SPIN_DEG = (45.0, -45.0, 90.0, -90.0, 135.0, -135.0, 180.0)  # turns of a body of revolution about its axis
 
 
 def plan_contacts(
@@ -41,7 +52,10 @@ def plan_contacts(
 
     object_points: the target's cloud (N, 3), base frame; scene_points: everything else seen (table points may
     be included: anything below 5 mm is ignored). collision_world: a safety.collision.CollisionWorld without the
-    target, used to accept only collision-free IK solutions. viewpoint: camera position (for normals).
+    target: IK solutions of the pre-contact, contact and arc poses must be collision-free in it with the fingers at
+    the candidate's opening (the exact geometry the gate will judge the approach in), those of the goal pose free of
+    self-collision, workspace and keep-out (at the goal the object is set down from above with a clearance, so
+    the scene there is the geometric filter's). viewpoint: camera position (for normals).
     """
     cfg = config or ContactConfig()
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
@@ -72,11 +86,12 @@ def plan_contacts(
         if not candidates:
             rejected["no horizontal motion to push along"] += 1
     total = len(candidates) + sum(rejected.values())
-    moved = transform_points(T_base_motion, pts)
+    motions = _motions(pts, T_base_motion, mode)
     scene_tree = cKDTree(scene) if len(scene) else None
+    goal_check = _GoalCheck(cfg, gripper, scene, scene_tree, [transform_points(M, pts) for M in motions])
     geometric = []
     for c in candidates:
-        reason = _geometric_reason(c, cfg, gripper, scene, moved, scene_tree, T_base_motion, robot)
+        reason = _contact_reason(c, cfg, gripper, scene, robot) or goal_check.first_reason(c, motions)
         if reason:
             rejected[reason] += 1
         else:
@@ -88,7 +103,7 @@ def plan_contacts(
     plans = []
     seed = robot.home_q if q_seed is None else np.asarray(q_seed, dtype=np.float64)
     for c in geometric[: cfg.ik_candidates]:
-        plan = _reachable_plan(c, cfg, robot, seed, T_base_motion, collision_world)
+        plan = _reachable_plan(c, cfg, robot, seed, motions, goal_check, collision_world)
         if isinstance(plan, str):
             rejected[plan] += 1
         else:
@@ -100,16 +115,18 @@ def plan_contacts(
     return ContactResult(plans, {k: v for k, v in rejected.items() if v}, total)
 
 
-def _geometric_reason(
-    c: Candidate,
-    cfg: ContactConfig,
-    gripper: GripperBoxes,
-    scene: np.ndarray,
-    moved: np.ndarray,
-    scene_tree,
-    T_motion: np.ndarray,
-    robot: RobotModel,
+def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> list[np.ndarray]:
+    """The object motion, then (a grasped body of revolution) the same goal turned about the body's own axis."""
+    axis = revolution_axis(points) if mode == "grasp" else None
+    if axis is None:
+        return [T_motion]
+    return [T_motion, *(T_motion @ axis.turn(np.radians(a)) for a in SPIN_DEG)]
+
+
+def _contact_reason(
+    c: Candidate, cfg: ContactConfig, gripper: GripperBoxes, scene: np.ndarray, robot: RobotModel
 ) -> str:
+    """Why the candidate cannot be approached and touched (empty when it can)."""
     tilt = np.degrees(np.arccos(np.clip(-c.T_contact[2, 2], -1, 1)))
     if tilt > cfg.max_tilt_deg:
         return f"approach outside the {cfg.max_tilt_deg:.0f} deg cone"
@@ -125,17 +142,35 @@ def _geometric_reason(
             return "gripper below the table along the arc"
         if gripper.hits_points(T, width, scene):
             return "gripper hits the scene along the arc"
-    T_goal = _goal(c, T_motion)
-    held_width = c.object_width_m if c.mode == "grasp" else 0.0
-    if gripper.lowest_z(T_goal, held_width) < 0.0:
-        return "gripper below the table at the goal"
-    if gripper.hits_points(T_goal, held_width, scene):
-        return "gripper hits the scene at the goal"
-    if c.mode == "grasp" and scene_tree is not None:
-        d, _ = scene_tree.query(moved, distance_upper_bound=cfg.placed_clearance_m)
-        if np.isfinite(d).mean() > 0.02:
-            return "placed object overlaps the scene"
     return ""
+
+
+class _GoalCheck:
+    """The gripper at the goal against table and scene, and the moved object against the scene, per motion."""
+
+    def __init__(self, cfg: ContactConfig, gripper: GripperBoxes, scene, scene_tree, moved: list[np.ndarray]) -> None:
+        self.cfg, self.gripper, self.scene, self.tree = cfg, gripper, scene, scene_tree
+        self.placed_reason = [self._placed_reason(m) for m in moved]
+
+    def _placed_reason(self, moved: np.ndarray) -> str:
+        if self.tree is None:
+            return ""
+        d, _ = self.tree.query(moved, distance_upper_bound=self.cfg.placed_clearance_m)
+        return "placed object overlaps the scene" if np.isfinite(d).mean() > 0.02 else ""
+
+    def reason(self, c: Candidate, T_goal: np.ndarray, k: int) -> str:
+        """Why the candidate cannot end at T_goal under the k-th motion (empty when it can)."""
+        held_width = c.object_width_m if c.mode == "grasp" else 0.0
+        if self.gripper.lowest_z(T_goal, held_width) < 0.0:
+            return "gripper below the table at the goal"
+        if self.gripper.hits_points(T_goal, held_width, self.scene):
+            return "gripper hits the scene at the goal"
+        return self.placed_reason[k] if c.mode == "grasp" else ""
+
+    def first_reason(self, c: Candidate, motions: list[np.ndarray]) -> str:
+        """The first motion's reason when the candidate can end under none of them (empty when it can)."""
+        reasons = [self.reason(c, _goal(c, M), k) for k, M in enumerate(motions)]
+        return "" if not all(reasons) else reasons[0]
 
 
 def _goal(c: Candidate, T_motion: np.ndarray) -> np.ndarray:
@@ -155,19 +190,93 @@ def _pre_contact(c: Candidate, distance_m: float) -> np.ndarray:
     return out
 
 
+def _half_turn(c: Candidate) -> Candidate:
+    """The same contact with the gripper turned half a turn about its approach axis."""
+    return replace(
+        c,
+        T_contact=c.T_contact @ HALF_TURN,
+        via=tuple(T @ HALF_TURN for T in c.via),
+        T_goal=None if c.T_goal is None else c.T_goal @ HALF_TURN,
+    )
+
+
 def _reachable_plan(
-    c: Candidate, cfg: ContactConfig, robot: RobotModel, seed: np.ndarray, T_motion: np.ndarray, world
+    c: Candidate,
+    cfg: ContactConfig,
+    robot: RobotModel,
+    seed: np.ndarray,
+    motions: list[np.ndarray],
+    goal_check: _GoalCheck,
+    world,
 ) -> ContactPlan | str:
+    """The candidate's plan, from the first wrist twin and object motion whose poses all have IK; else why the
+    candidate as sampled (first twin, first motion) fails."""
+    accept, accept_goal = None, None
+    if world is not None:
+        width = _open_width(c, cfg, robot)
+        accept = lambda q: not world.in_collision(q, width)  # noqa: E731
+        accept_goal = lambda q: all(k.kind == "collision" for k in world.check(q, width))  # noqa: E731
+    first_reason = ""
+    for twin in (c, _half_turn(c)):
+        plan = _twin_plan(twin, cfg, robot, seed, motions, goal_check, accept, accept_goal)
+        if not isinstance(plan, str):
+            return plan
+        first_reason = first_reason or plan
+    return first_reason
+
+
+def _twin_plan(
+    c: Candidate,
+    cfg: ContactConfig,
+    robot: RobotModel,
+    seed: np.ndarray,
+    motions: list[np.ndarray],
+    goal_check: _GoalCheck,
+    accept,
+    accept_goal,
+) -> ContactPlan | str:
+    """The plan of this twin under the first motion whose goal passes the goal checks and has IK; else why not."""
     T_pre = _pre_contact(c, cfg.pre_distance_m)
-    T_goal = _goal(c, T_motion)
-    accept = None if world is None else (lambda q: not world.in_collision(q))
     qs = []
     arc = [(T, "arc") for T in c.via]
-    for T, where in ((T_pre, "pre-contact"), (c.T_contact, "contact"), *arc, (T_goal, "goal")):
+    for T, where in ((T_pre, "pre-contact"), (c.T_contact, "contact"), *arc):
         r = robot.ik(T, qs[-1] if qs else seed, settings=IK_SETTINGS, accept=accept)
         if not r.success:
             return f"{where} pose out of reach"
         qs.append(r.q)
+    lifts = cfg.place_lifts_m if c.mode == "grasp" else ()
+    for k, M in enumerate(motions):
+        T_goal = _goal(c, M)
+        if goal_check.reason(c, T_goal, k):
+            continue
+        q_goal = _goal_ik(robot, T_goal, lifts, qs[-1], accept_goal)
+        if q_goal is not None:
+            return _plan(c, cfg, robot, T_pre, T_goal, M, [*qs, q_goal])
+    return "goal pose out of reach"
+
+
+def _goal_ik(robot: RobotModel, T_goal: np.ndarray, lifts: tuple[float, ...], q_from: np.ndarray, accept):
+    """IK of the goal pose, also of the poses `lifts` above it (each seeded by the last); None if one has none."""
+    qs = [q_from]
+    for lift in (0.0, *lifts):
+        T = T_goal.copy()
+        T[2, 3] += lift
+        r = robot.ik(T, qs[-1], settings=IK_SETTINGS, accept=accept)
+        if not r.success:
+            return None
+        qs.append(r.q)
+    return qs[1]
+
+
+def _plan(
+    c: Candidate,
+    cfg: ContactConfig,
+    robot: RobotModel,
+    T_pre: np.ndarray,
+    T_goal: np.ndarray,
+    T_motion: np.ndarray,
+    qs: list[np.ndarray],
+) -> ContactPlan:
     margin = min(float(np.min(np.minimum(q - robot.lower, robot.upper - q))) for q in qs)
     reach = float(np.clip(margin / 0.5, 0.0, 1.0))
     scores = {"antipodal": c.antipodal, "centred": c.centred, "approach": c.approach, "reach": reach}
@@ -189,4 +298,5 @@ def _reachable_plan(
         q_goal,
         c.via,
         tuple(q_via),
+        T_motion,
     )

@@ -38,6 +38,9 @@ class ContactConfig(StrictModel):
     hinge_max_slide_m: float = Field(default=0.005, ge=0, description="hinge motion: largest slide along the axis")
     hinge_min_turn_deg: float = Field(default=5.0, ge=0, description="hinge motion: smallest turn worth a push")
     collision_padding_m: float = Field(default=0.005, ge=0)
+    place_lifts_m: tuple[float, ...] = Field(
+        default=(), description="grasp: heights above the goal pose the gripper passes setting the object down"
+    )
     placed_clearance_m: float = Field(default=0.004, ge=0, description="moved object vs other scene points")
     ik_candidates: int = Field(default=12, ge=1, description="best geometric candidates checked for reachability")
     keep: int = Field(default=5, ge=1, description="reachable plans returned")
@@ -63,6 +66,9 @@ class ContactPlan:
     q_goal: np.ndarray | None = None
     via: tuple[np.ndarray, ...] = ()  # TCP poses between contact and goal, in order (hinge: along the arc)
     q_via: tuple[np.ndarray, ...] = ()
+    # the object motion the plan realises: the one asked for, or for a body of revolution that goal turned about
+    # the body's own axis (the same to the eye); None: T_goal T_contact^-1
+    T_motion: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,68 @@
+"""The axis a body of revolution turns about, from the part of its surface one camera sees (base frame).
+
+A bottle, can or ball looks the same after any turn about its own axis, so the grounded motion's turn about that
+axis is not seen in the images: it is whatever the registration settled on, and a grasp carried by it may end in
+a wrist pose the arm cannot take while the same object goal, turned about its axis, is easy. The axis is found
+among the cloud's principal directions as the one whose slices across it are circles about one common line.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+SLICE_M = 0.005  # slice thickness along the candidate axis
+TOLERANCE_REL = 0.02  # median distance off the fitted surface / object size (bottles ~0.005, boxes >= 0.027)
+MIN_POINTS = 50
+
+
+@dataclass(frozen=True)
+class RevolutionAxis:
+    point: np.ndarray  # a point on the axis (base frame), at the cloud's middle along it
+    direction: np.ndarray  # unit vector along the axis
+    radius_m: float  # median distance of the points from the axis
+    residual_rel: float  # median distance off the fitted surface / object size
+
+    def turn(self, angle_rad: float) -> np.ndarray:
+        """4x4 rigid turn by angle_rad about this axis (base frame)."""
+        a = self.direction
+        K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+        R = np.eye(3) + np.sin(angle_rad) * K + (1.0 - np.cos(angle_rad)) * K @ K
+        T = np.eye(4)
+        T[:3, :3] = R
+        T[:3, 3] = self.point - R @ self.point
+        return T
+
+
+def _fit(points: np.ndarray, axis: np.ndarray, size: float) -> RevolutionAxis:
+    """Circles about one line along `axis`, one radius per slice: x^2 + y^2 = 2 x0 x + 2 y0 y + c_slice."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    s = points @ axis
+    uv = np.column_stack([points @ e1, points @ e2])
+    labels, slice_of = np.unique(np.floor((s - s.min()) / SLICE_M).astype(int), return_inverse=True)
+    A = np.zeros((len(points), 2 + len(labels)))
+    A[:, :2] = 2 * uv
+    A[np.arange(len(points)), 2 + slice_of] = 1.0
+    u0, v0 = np.linalg.lstsq(A, (uv**2).sum(axis=1), rcond=None)[0][:2]
+    radius = np.hypot(uv[:, 0] - u0, uv[:, 1] - v0)
+    per_slice = np.array([np.median(radius[slice_of == k]) for k in range(len(labels))])
+    residual = float(np.median(np.abs(radius - per_slice[slice_of]))) / size
+    point = u0 * e1 + v0 * e2 + float(np.median(s)) * axis
+    return RevolutionAxis(point, axis, float(np.median(radius)), residual)
+
+
+def revolution_axis(points: np.ndarray) -> RevolutionAxis | None:
+    """The axis of the body of revolution the points (N, 3) lie on, or None when they lie on none."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(P) < MIN_POINTS:
+        return None
+    size = float(np.linalg.norm(np.ptp(P, axis=0)))
+    if size <= 0.0:
+        return None
+    directions = np.linalg.svd(P - P.mean(axis=0), full_matrices=False)[2]
+    best = min((_fit(P, d, size) for d in directions), key=lambda f: f.residual_rel)
+    return best if best.residual_rel <= TOLERANCE_REL else None

@@ -1,0 +1,100 @@
+"""Freedoms the contact planner uses when a candidate as sampled cannot be reached: the gripper's half turn about
+its approach axis (the same grasp, the other wrist), a body of revolution's turn about its own axis (the same goal
+to the eye), and the heights the object is set down from (checked as part of the goal)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from test_contact_planner import _box_cloud, _translation
+
+from pipeline.contact.planner import plan_contacts
+from pipeline.contact.symmetry import revolution_axis
+from pipeline.contact.types import ContactConfig
+from safety.collision import CollisionWorld
+from safety.robot_model import RobotModel
+
+RADIUS, LENGTH = 0.03, 0.18
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+@pytest.fixture(scope="module")
+def arm_only(robot):
+    """Self-collision, workspace and keep-out only, as the runtime's contact stage passes (plus its scene)."""
+    return CollisionWorld(robot, table=False)
+
+
+def _lying_cylinder(x: float, y: float, n: int = 2500, seed: int = 0) -> np.ndarray:
+    """The upper surface a camera above sees of a cylinder lying along base y on the table."""
+    rng = np.random.default_rng(seed)
+    along = rng.uniform(-LENGTH / 2, LENGTH / 2, n)
+    a = rng.uniform(0.1 * np.pi, 0.9 * np.pi, n)
+    return np.column_stack([x + RADIUS * np.cos(a), y + along, RADIUS + RADIUS * np.sin(a)])
+
+
+def _stand_up(x: float, y: float, yaw_deg: float) -> np.ndarray:
+    """x_goal = T x: the lying cylinder stood on its -y end, then turned yaw_deg about its now vertical axis."""
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_euler("xz", [90.0, yaw_deg], degrees=True).as_matrix()
+    T[:3, 3] = np.array([x, y, LENGTH / 2]) - T[:3, :3] @ np.array([x, y, RADIUS])
+    return T
+
+
+def test_the_axis_of_a_lying_cylinder_is_found_from_its_seen_half_and_a_box_has_none():
+    axis = revolution_axis(_lying_cylinder(0.45, 0.05))
+    assert axis is not None
+    assert abs(axis.direction[1]) > 0.999
+    np.testing.assert_allclose(axis.point[[0, 2]], [0.45, RADIUS], atol=0.002)
+    assert axis.radius_m == pytest.approx(RADIUS, abs=0.002)
+    assert revolution_axis(_box_cloud((0.45, 0.0), np.array([0.05, 0.05, 0.05]))) is None
+    turn = axis.turn(np.radians(70.0))
+    on_axis = axis.point + 0.05 * axis.direction
+    np.testing.assert_allclose(turn[:3, :3] @ on_axis + turn[:3, 3], on_axis, atol=1e-12)
+
+
+def test_a_stand_up_ending_with_the_wrist_behind_the_bottle_is_turned_about_the_bottle_axis(robot, arm_only):
+    # turned 90 deg after standing up, every top grasp would end with the gripper pointing back at the robot
+    cylinder, motion = _lying_cylinder(0.45, 0.0), _stand_up(0.45, 0.0, 90.0)
+    config = ContactConfig(place_lifts_m=(0.025, 0.125), collision_padding_m=0.01, min_tcp_height_m=0.015)
+    result = plan_contacts(cylinder, np.zeros((0, 3)), motion, robot, config=config, collision_world=arm_only)
+    assert result.ok, result.reason
+    axis = revolution_axis(cylinder)
+    ends = np.array([axis.point + s * axis.direction for s in (-0.08, 0.08)])
+    for plan in result.plans:
+        realised = plan.T_motion
+        assert not np.allclose(realised[:3, :3], motion[:3, :3], atol=1e-3)  # not the grounded turn ...
+        moved = lambda T: ends @ T[:3, :3].T + T[:3, 3]  # noqa: E731
+        np.testing.assert_allclose(moved(realised), moved(motion), atol=1e-9)  # ... but the same axis: same goal
+        np.testing.assert_allclose(plan.T_goal, realised @ plan.T_contact, atol=1e-12)
+        np.testing.assert_allclose(robot.tcp_pose(plan.q_goal), plan.T_goal, atol=1e-4)
+        assert not arm_only.in_collision(plan.q_goal)
+
+
+def test_a_wrist_that_folds_onto_itself_is_planned_half_turned(robot, arm_only):
+    # closing along base x at this spot, the sampled wrist folds link5 onto link7 (link7 is off its axis); the
+    # same grasp half turned about the approach axis is free
+    box = _box_cloud((0.462, -0.12), np.array([0.05, 0.05, 0.05]))
+    config = ContactConfig(yaw_step_deg=90.0)  # samples closing axes +x and +y only
+    result = plan_contacts(
+        box, np.zeros((0, 3)), _translation(0.0, 0.1), robot, config=config, collision_world=arm_only
+    )
+    assert result.ok, result.reason
+    closing = [np.round(p.T_contact[:3, 1], 3) for p in result.plans]
+    assert any(np.allclose(y, [-1.0, 0.0, 0.0]) for y in closing), closing  # never sampled: the half turn of +x
+    for plan in result.plans:
+        for q in (plan.q_pre, plan.q_contact, plan.q_goal):
+            assert not arm_only.in_collision(q)
+
+
+def test_the_heights_the_object_is_set_down_from_must_be_reachable_too(robot):
+    box = _box_cloud((0.45, 0.0), np.array([0.05, 0.05, 0.05]))
+    far = _translation(0.2, 0.0)  # set down 0.65 m out: reachable at the table, not half a metre above it
+    assert plan_contacts(box, np.zeros((0, 3)), far, robot).ok
+    lifted = plan_contacts(box, np.zeros((0, 3)), far, robot, config=ContactConfig(place_lifts_m=(0.5,)))
+    assert not lifted.ok
+    assert "goal pose out of reach" in lifted.reason
