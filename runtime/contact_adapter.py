@@ -56,18 +56,11 @@ def lowest_safe_tcp_height(ctx: RunContext, chain: Chain) -> float:
     return -lowest + TABLE_MARGIN_M
 
 
-def _turn_deg(T_a: np.ndarray | None, T_b: np.ndarray) -> float:
-    """The angle [deg] of the rotation between two motions (0 when T_a is None: the same motion)."""
-    if T_a is None:
-        return 0.0
-    cos = (np.trace(T_a[:3, :3] @ T_b[:3, :3].T) - 1.0) / 2.0
-    return round(float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))), 1)
-
-
 def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
     """Ranked ContactPoses; StageError with pipeline.contact's rejection counts when there is none."""
     plan_contacts = require("contact", "pipeline.contact.planner", "plan_contacts")
     ContactConfig = require("contact", "pipeline.contact.types", "ContactConfig")
+    turn_deg = require("contact", "pipeline.contact.symmetry", "turn_deg")
     mode = contact_mode(ctx.instruction)
     points = chain.target_points
     config = getattr(ctx.profile.pipeline, "contact", None) or ContactConfig()
@@ -101,7 +94,10 @@ def contact_candidates(ctx: RunContext, chain: Chain) -> list[ContactPoses]:
             "rejected": result.rejected,
             # per ranked plan, how far its object motion turns from the grounded one (a body of revolution may be
             # set down turned about its own axis, the same goal to the eye); 0 = as grounded
-            "turn_from_grounded_deg": [_turn_deg(plan.T_motion, ctx.motion.T_base) for plan in result.plans],
+            "turn_from_grounded_deg": [
+                round(turn_deg(plan.T_motion, ctx.motion.T_base), 1) if plan.T_motion is not None else 0.0
+                for plan in result.plans
+            ],
         }
     )
     if not result.ok:

@@ -25,7 +25,7 @@ from scipy.spatial import cKDTree
 from pipeline.contact.gripper import GripperBoxes
 from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
 from pipeline.contact.sampling import Candidate, estimate_normals, grasp_candidates, push_candidates
-from pipeline.contact.symmetry import revolution_axis
+from pipeline.contact.symmetry import revolution_axis, turn_deg
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from safety.geometry import transform_points
 from safety.ik import IKSettings
@@ -111,7 +111,9 @@ def plan_contacts(
         if len(plans) == cfg.keep:
             break
     rejected["not checked for reachability (enough plans)"] += max(0, len(geometric) - cfg.ik_candidates)
-    plans.sort(key=lambda p: -p.score)
+    # the grounded motion first, then the least turn about a body's axis: the turn is not in the images, but the
+    # verification's registration may still see part of it
+    plans.sort(key=lambda p: (round(turn_deg(p.T_motion, T_base_motion)), -p.score))
     return ContactResult(plans, {k: v for k, v in rejected.items() if v}, total)
 
 

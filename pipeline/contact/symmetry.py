@@ -35,6 +35,12 @@ class RevolutionAxis:
         return T
 
 
+def turn_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
+    """The angle [deg] of the rotation between two motions (4x4): how far a plan's turns from the grounded one."""
+    cos = (np.trace(T_a[:3, :3] @ T_b[:3, :3].T) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+
+
 def _fit(points: np.ndarray, axis: np.ndarray, size: float) -> RevolutionAxis:
     """Circles about one line along `axis`, one radius per slice: x^2 + y^2 = 2 x0 x + 2 y0 y + c_slice."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
