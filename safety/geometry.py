@@ -28,6 +28,13 @@ def pose(xyz=(0.0, 0.0, 0.0), R: np.ndarray | None = None) -> np.ndarray:
     return T
 
 
+def turn_about(point: np.ndarray, axis: np.ndarray, angle_rad: float) -> np.ndarray:
+    """4x4 rigid turn by angle_rad (right hand) about the line through `point` along `axis` (a hinge, an axis of
+    symmetry)."""
+    R = Rotation.from_rotvec(angle_rad * np.asarray(axis, dtype=np.float64) / np.linalg.norm(axis)).as_matrix()
+    return pose(np.asarray(point, dtype=np.float64) - R @ point, R)
+
+
 def pose_rpy(xyz, rpy) -> np.ndarray:
     """Pose from a position and fixed-axis roll-pitch-yaw (the URDF convention)."""
     return pose(xyz, Rotation.from_euler("xyz", rpy).as_matrix())

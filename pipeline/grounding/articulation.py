@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.umeyama import Similarity
+from safety.geometry import turn_about
 
 ATTACH_M = 0.012  # part points this close to the anchor's points are where the two meet
 MIN_ATTACH_POINTS = 10
@@ -37,8 +37,8 @@ class Hinge:
 
     def turn(self, angle_rad: float) -> Similarity:
         """The rigid motion turning by angle_rad about the hinge (right-handed about `axis`)."""
-        R = Rotation.from_rotvec(angle_rad * self.axis).as_matrix()
-        return Similarity(1.0, R, self.point - R @ self.point)
+        T = turn_about(self.point, self.axis, angle_rad)
+        return Similarity(1.0, T[:3, :3], T[:3, 3])
 
 
 def find_hinge(part: np.ndarray, anchor: np.ndarray, attach_m: float = ATTACH_M) -> Hinge | str:
