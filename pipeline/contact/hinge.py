@@ -27,6 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from pipeline.contact.sampling import Candidate, frame
 from pipeline.contact.types import ContactConfig
+from safety.geometry import turn_about
 
 MIN_EXTENT_M = 0.02  # a part shorter than this from its hinge has no free edge to push near
 LATERAL = 0.15  # off-centre contacts this fraction of the part's width along the hinge from its middle
@@ -46,10 +47,7 @@ class Hinge:
 
     def turn(self, angle_rad: float) -> np.ndarray:
         """T_base (4x4) of the turn by angle_rad about the hinge line."""
-        T = np.eye(4)
-        T[:3, :3] = Rotation.from_rotvec(angle_rad * self.axis).as_matrix()
-        T[:3, 3] = self.point - T[:3, :3] @ self.point
-        return T
+        return turn_about(self.point, self.axis, angle_rad)
 
 
 def hinge_from_motion(T_base_motion: np.ndarray, max_slide_m: float, min_turn_deg: float) -> Hinge:

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from safety.geometry import turn_about
+
 SLICE_M = 0.005  # slice thickness along the candidate axis
 TOLERANCE_REL = 0.02  # median distance off the fitted surface / object size (bottles ~0.005, boxes >= 0.027)
 MIN_POINTS = 50
@@ -26,13 +28,7 @@ class RevolutionAxis:
 
     def turn(self, angle_rad: float) -> np.ndarray:
         """4x4 rigid turn by angle_rad about this axis (base frame)."""
-        a = self.direction
-        K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-        R = np.eye(3) + np.sin(angle_rad) * K + (1.0 - np.cos(angle_rad)) * K @ K
-        T = np.eye(4)
-        T[:3, :3] = R
-        T[:3, 3] = self.point - R @ self.point
-        return T
+        return turn_about(self.point, self.direction, angle_rad)
 
 
 def turn_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
