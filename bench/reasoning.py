@@ -31,7 +31,6 @@ import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 from rich.console import Console  # noqa: E402
 from rich.table import Table  # noqa: E402
-from scipy.spatial.transform import Rotation  # noqa: E402
 
 from drivers.sim import SimCamera, SimWorld  # noqa: E402
 from pipeline.config import PipelineConfig  # noqa: E402
@@ -42,6 +41,7 @@ from pipeline.reasoning.factory import build_reasoner  # noqa: E402
 from pipeline.reasoning.instruction import parse_instruction  # noqa: E402
 from pipeline.reasoning.types import ReasoningError  # noqa: E402
 from runtime.config import load_profile  # noqa: E402
+from runtime.verify import rotation_deg, without_turn_about  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 TARGETS = {"accepted_fraction": 0.9, "grounded_within_tolerance_fraction": 0.9, "reasoning_s_median": 2.0}
@@ -133,16 +133,6 @@ def capture(scenes_dir: Path, scene: str, seed: int):
     return frame, truth
 
 
-def swing_deg(R_err: np.ndarray, axis: np.ndarray) -> float:
-    """Rotation error left after removing any turn about `axis` (unobservable for a body symmetric about it)."""
-    x, y, z, w = Rotation.from_matrix(R_err).as_quat()
-    along = np.dot([x, y, z], axis) * axis
-    twist = np.array([*along, w])
-    twist = twist / np.linalg.norm(twist) if np.linalg.norm(twist) > 1e-12 else np.array([0.0, 0.0, 0.0, 1.0])
-    swing = Rotation.from_quat([x, y, z, w]) * Rotation.from_quat(twist).inv()
-    return float(np.degrees(swing.magnitude()))
-
-
 def motion_error(
     T_intended: np.ndarray, R: np.ndarray, t: np.ndarray, centroid: np.ndarray, up: np.ndarray | None
 ) -> tuple[float, float]:
@@ -150,7 +140,7 @@ def motion_error(
     moved_intended = T_intended[:3, :3] @ centroid + T_intended[:3, 3]
     moved_grounded = R @ centroid + t
     R_err = R @ T_intended[:3, :3].T
-    angle = swing_deg(R_err, up) if up is not None else float(np.degrees(Rotation.from_matrix(R_err).magnitude()))
+    angle = rotation_deg(without_turn_about(R_err, up) if up is not None else R_err)
     return float(np.linalg.norm(moved_grounded - moved_intended)), angle
 
 

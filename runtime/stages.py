@@ -17,8 +17,7 @@ import numpy as np
 
 from runtime.context import RunContext, StageError, StageUnavailable, Verification
 from runtime.messages import PlanSummary
-from runtime.verify import compare, object_centre, revolution_axis, rotation_deg
-from safety.geometry import transform_points
+from runtime.verify import compare, object_centre, object_symmetry, rotation_deg
 
 log = logging.getLogger(__name__)
 
@@ -249,9 +248,7 @@ class PipelineStages:
         if not achieved.ok:
             return Verification(False, f"could not measure the achieved motion: {achieved.reason}")
         points = frame0.intrinsics.unproject_depth_image(frame0.depth)[mask0 & np.isfinite(frame0.depth)]
-        T_camera_base = np.linalg.inv(frame0.T_base_camera)
-        axis = None if anchor is not None else revolution_axis(transform_points(frame0.T_base_camera, points))
-        centre = object_centre(points) if axis is None else transform_points(T_camera_base, axis[None])[0]
+        symmetry = None if anchor is not None else object_symmetry(points)
         goal = ctx.motion
         cfg = ctx.profile.runtime
         return compare(
@@ -259,11 +256,11 @@ class PipelineStages:
             goal.t,
             achieved.R,
             achieved.t,
-            centre,
+            object_centre(points),
             frame0.T_base_camera[:3, :3],
             cfg.verify_position_tol_m,
             cfg.verify_rotation_tol_deg,
-            twist_visible=axis is None,
+            symmetry,
         )
 
 

@@ -14,6 +14,7 @@ then lie on one surface of revolution about some vertical axis (each height slic
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -21,8 +22,6 @@ from scipy.spatial.transform import Rotation
 from runtime.context import Verification
 
 INTENDED_DEG = 10.0
-REVOLUTION_SLICE_M = 0.005
-REVOLUTION_TOL_REL = 0.02  # median distance off the fitted surface / object size (balls ~0.014, boxes >= 0.03)
 
 
 def rotation_deg(R: np.ndarray) -> float:
@@ -38,25 +37,39 @@ def twist_tilt_deg(R_base: np.ndarray) -> tuple[float, float]:
     return twist, tilt
 
 
-def revolution_axis(points_base: np.ndarray) -> np.ndarray | None:
-    """The point on the vertical axis the object's points (N, 3, base frame) revolve about, at their median height,
-    or None when they do not lie on a surface of revolution about a vertical axis."""
-    P = np.asarray(points_base, dtype=np.float64)
-    size = float(np.linalg.norm(np.ptp(P, axis=0))) if len(P) else 0.0
-    if len(P) < 20 or size <= 0.0:
+@dataclass(frozen=True)
+class Symmetry:
+    """What the seen points say no registration can see: turns about `axis` (unit, camera frame) of a body of
+    revolution, or any turn of a ball (axis None). `centre` (camera frame, on the axis or the ball's centre) is
+    where positions are compared, since the seen side's centroid swings with the unseen turn."""
+
+    centre: np.ndarray
+    axis: np.ndarray | None
+
+
+def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
+    """The symmetry of the object whose seen points (N, 3) are given, or None (a box, a pan: every turn shows)."""
+    from runtime.stages import require  # pipeline modules are optional at import time, as for every stage
+
+    revolution_axes = require("verification", "pipeline.contact.symmetry", "revolution_axes")
+    axes = revolution_axes(points_camera)
+    if not axes:
         return None
-    slices = np.floor((P[:, 2] - P[:, 2].min()) / REVOLUTION_SLICE_M).astype(int)
-    labels, slice_of = np.unique(slices, return_inverse=True)
-    # every slice a circle about (x0, y0) with its own radius: x^2 + y^2 = 2 x0 x + 2 y0 y + c_slice
-    A = np.zeros((len(P), 2 + len(labels)))
-    A[:, :2] = 2 * P[:, :2]
-    A[np.arange(len(P)), 2 + slice_of] = 1.0
-    x0, y0 = np.linalg.lstsq(A, (P[:, :2] ** 2).sum(axis=1), rcond=None)[0][:2]
-    radius = np.hypot(P[:, 0] - x0, P[:, 1] - y0)
-    off = np.abs(radius - np.array([np.median(radius[slice_of == k]) for k in range(len(labels))])[slice_of])
-    if np.median(off) > REVOLUTION_TOL_REL * size:
-        return None
-    return np.array([x0, y0, float(np.median(P[:, 2]))])
+    if len(axes) == 1:
+        return Symmetry(axes[0].point, axes[0].direction)
+    P = np.asarray(points_camera, dtype=np.float64)  # round about two axes: a ball; |x|^2 = 2 c.x + k
+    centre = np.linalg.lstsq(np.column_stack([2 * P, np.ones(len(P))]), (P**2).sum(axis=1), rcond=None)[0][:3]
+    return Symmetry(centre, None)
+
+
+def without_turn_about(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """R with its turn about `axis` taken out (the swing of a swing-twist split)."""
+    x, y, z, w = Rotation.from_matrix(R).as_quat()
+    along = (np.array([x, y, z]) @ axis) * axis
+    twist = np.array([*along, w])
+    norm = np.linalg.norm(twist)
+    twist = twist / norm if norm > 1e-12 else np.array([0.0, 0.0, 0.0, 1.0])
+    return (Rotation.from_quat([x, y, z, w]) * Rotation.from_quat(twist).inv()).as_matrix()
 
 
 def object_centre(points_camera: np.ndarray) -> np.ndarray:
@@ -73,17 +86,23 @@ def compare(
     R_base_camera: np.ndarray,
     position_tol_m: float,
     rotation_tol_deg: float,
-    twist_visible: bool = True,
+    symmetry: Symmetry | None = None,
 ) -> Verification:
     """Verdict from the goal and achieved motions (x' = R x + t, camera frame) of an object centred at centre;
-    `twist_visible` False for a body of revolution about the vertical (its twist is not judged)."""
+    with a symmetry, positions are compared at its centre and turns it hides are not judged."""
+    if symmetry is not None:
+        centre_camera = symmetry.centre
     p_goal = goal_R @ centre_camera + goal_t
     p_achieved = achieved_R @ centre_camera + achieved_t
     position_error = float(np.linalg.norm(p_goal - p_achieved))
     to_base = lambda R: R_base_camera @ R @ R_base_camera.T  # noqa: E731
     goal_twist, goal_tilt = twist_tilt_deg(to_base(goal_R))
-    twist_error, tilt_error = twist_tilt_deg(to_base(goal_R.T @ achieved_R))
-    judge_twist, judge_tilt = twist_visible and goal_twist >= INTENDED_DEG, goal_tilt >= INTENDED_DEG
+    R_error = goal_R.T @ achieved_R  # acts on the object as first seen, where the symmetry axis was found
+    if symmetry is not None and symmetry.axis is not None:
+        R_error = without_turn_about(R_error, symmetry.axis)
+    twist_error, tilt_error = twist_tilt_deg(to_base(R_error))
+    turns_seen = symmetry is None or symmetry.axis is not None  # no turn of a ball shows
+    judge_twist, judge_tilt = turns_seen and goal_twist >= INTENDED_DEG, turns_seen and goal_tilt >= INTENDED_DEG
     details = {
         "goal_translation_m": float(np.linalg.norm(p_goal - centre_camera)),
         "achieved_translation_m": float(np.linalg.norm(p_achieved - centre_camera)),
@@ -92,7 +111,7 @@ def compare(
         "twist_error_deg": twist_error,
         "tilt_error_deg": tilt_error,
         "twist_judged": judge_twist,
-        "twist_visible": twist_visible,
+        "symmetry": "none" if symmetry is None else ("ball" if symmetry.axis is None else "revolution"),
         "tilt_judged": judge_tilt,
         "position_tol_m": position_tol_m,
         "rotation_tol_deg": rotation_tol_deg,

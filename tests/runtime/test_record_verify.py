@@ -13,7 +13,7 @@ from runtime.context import StageUnavailable
 from runtime.record import RunRecord
 from runtime.stages import require
 from runtime.states import State, StateMachine
-from runtime.verify import compare, revolution_axis
+from runtime.verify import Symmetry, compare, object_symmetry
 
 
 def yaw(deg: float) -> np.ndarray:
@@ -47,32 +47,49 @@ def test_turn_is_judged_only_when_the_goal_turns():
     assert not wrong.ok and "turned 30.0 deg off" in wrong.reason
 
 
-def test_twist_of_a_body_of_revolution_is_not_judged():
+def test_turns_a_symmetry_hides_are_not_judged():
     c = np.array([0.0, 0.0, 0.8])
     args = (yaw(90), about_centre(yaw(90), c), yaw(20), about_centre(yaw(20), c), c, CAM, 0.03, 15.0)
     assert not compare(*args).ok
-    ball = compare(*args, twist_visible=False)
-    assert ball.ok and not ball.details["twist_judged"] and ball.details["twist_error_deg"] == pytest.approx(70)
+    can = compare(*args, Symmetry(c, np.array([0.0, 0.0, 1.0])))  # upright: its turn about the vertical is unseen
+    assert can.ok and can.details["twist_error_deg"] == pytest.approx(0.0, abs=1e-6)
+    ball = compare(*args, Symmetry(c, None))
+    assert ball.ok and not ball.details["twist_judged"] and ball.details["symmetry"] == "ball"
 
 
-def test_revolution_axis_finds_a_ball_and_an_upright_can_but_not_a_box():
+def test_a_lying_bottle_stood_up_is_judged_on_its_tilt_not_its_spin():
+    c = np.array([0.0, 0.0, 0.8])
+    axis = np.array([1.0, 0.0, 0.0])  # the bottle lies along x
+    stand = Rotation.from_euler("y", 90, degrees=True).as_matrix()
+    spun = stand @ Rotation.from_rotvec(np.radians(40) * axis).as_matrix()  # the same, turned about its own axis
+    bottle = Symmetry(c, axis)
+    ok = compare(stand, about_centre(stand, c), spun, about_centre(spun, c), c, CAM, 0.03, 15.0, bottle)
+    assert ok.ok and ok.details["tilt_error_deg"] == pytest.approx(0.0, abs=1e-6)
+    assert not compare(stand, about_centre(stand, c), spun, about_centre(spun, c), c, CAM, 0.03, 15.0).ok
+    half = Rotation.from_euler("y", 60, degrees=True).as_matrix()
+    short = compare(stand, about_centre(stand, c), half, about_centre(half, c), c, CAM, 0.03, 15.0, bottle)
+    assert not short.ok and "tilted 30.0 deg" in short.reason
+
+
+def test_object_symmetry_finds_a_ball_an_upright_can_and_no_box():
     rng = np.random.default_rng(0)
-    eye = np.array([1.1, 0.0, 0.8])  # the sim camera's position
+    eye = np.zeros(3)  # camera frame: the camera at the origin looking along +z
 
     def seen(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
         """The points of a convex body facing the eye, with 0.8 mm depth-like noise."""
         front = points[np.einsum("ij,ij->i", points - centre, eye - points) > 0]
         return front + rng.normal(0, 0.0008, front.shape)
 
-    ball_centre = np.array([0.45, -0.12, 0.032])
+    ball_centre = np.array([0.05, 0.02, 0.8])
     ball = ball_centre + 0.032 * Rotation.random(4000, random_state=1).apply([1.0, 0.0, 0.0])
-    axis = revolution_axis(seen(ball, ball_centre))
-    assert axis is not None and np.linalg.norm(axis[:2] - ball_centre[:2]) < 0.003
-    theta, z = rng.uniform(0, 2 * np.pi, 3000), rng.uniform(0, 0.11, 3000)
-    can_centre = np.array([0.6, 0.1, 0.055])
-    can = np.column_stack([0.6 + 0.03 * np.cos(theta), 0.1 + 0.03 * np.sin(theta), z])
-    axis = revolution_axis(seen(can, can_centre))
-    assert axis is not None and np.linalg.norm(axis[:2] - can_centre[:2]) < 0.003
+    round_ = object_symmetry(seen(ball, ball_centre))
+    assert round_ is not None and round_.axis is None and np.linalg.norm(round_.centre - ball_centre) < 0.004
+    theta, h = rng.uniform(0, 2 * np.pi, 3000), rng.uniform(-0.055, 0.055, 3000)
+    can_centre = np.array([-0.1, 0.0, 0.9])
+    can = can_centre + np.column_stack([0.03 * np.cos(theta), h, 0.03 * np.sin(theta)])  # upright: along y
+    upright = object_symmetry(seen(can, can_centre))
+    assert upright is not None and abs(upright.axis[1]) > 0.99
+    assert np.linalg.norm((upright.centre - can_centre)[[0, 2]]) < 0.003
     u, v = rng.uniform(-0.025, 0.025, (2, 3000))
     half = np.full_like(u, 0.025)
     faces = np.concatenate(
@@ -80,10 +97,9 @@ def test_revolution_axis_finds_a_ball_and_an_upright_can_but_not_a_box():
         + [np.column_stack([s * half, u, v]) for s in (1, -1)]
         + [np.column_stack([u, s * half, v]) for s in (1, -1)]
     )
-    cube_centre = np.array([0.5, 0.0, 0.025])
-    cube = Rotation.from_euler("z", 30, degrees=True).apply(faces) + cube_centre  # a 5 cm cube turned 30 deg
-    assert revolution_axis(seen(cube, cube_centre)) is None
-    assert revolution_axis(np.zeros((5, 3))) is None
+    cube_centre = np.array([0.0, 0.1, 0.7])
+    cube = Rotation.from_euler("xyz", [30, 20, 10], degrees=True).apply(faces) + cube_centre
+    assert object_symmetry(seen(cube, cube_centre)) is None
 
 
 def test_tilt_is_judged_when_the_goal_tilts_in_the_base_frame():
