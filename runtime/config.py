@@ -15,6 +15,7 @@ from pydantic import Field, ValidationError, model_validator
 
 from calibration.config import CalibrationConfig
 from drivers.config import CameraConfig, RobotConfig, SimConfig, StrictModel
+from motion.config import MotionConfig
 from pipeline.config import PipelineConfig
 from safety.config import SafetyConfig
 
@@ -97,6 +98,7 @@ class Profile(StrictModel):
     camera: CameraConfig = CameraConfig()
     calibration: CalibrationConfig = CalibrationConfig()
     safety: SafetyConfig = SafetyConfig()
+    motion: MotionConfig = MotionConfig()
     pipeline: PipelineConfig = PipelineConfig()
     runtime: RuntimeConfig = RuntimeConfig()
     sim: SimConfig = SimConfig()

@@ -22,11 +22,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from motion.approval import ApprovedTrajectory, GateRefused, approve
+from motion.approval import ApprovedTrajectory, GateRefused, approve, gate_check
 from motion.cartesian import CartesianPathError, cartesian_path
 from motion.goals import GoalError, ik_goals, lifted
 from motion.limits import MotionLimits
 from motion.planner import Planner, PlanningError
+from motion.segments import scaled_limits
 from motion.timing import GripperAction, TimingError, TrajectoryTimer
 from runtime.context import RunContext, StageError
 from safety.collision import CollisionWorld
@@ -90,7 +91,8 @@ class Chain:
         profile, dev = ctx.profile, ctx.devices
         self.robot = RobotModel()
         self.safety = profile.safety
-        self.limits = MotionLimits.from_config(profile.safety, self.robot.spec)
+        self.motion = profile.motion
+        self.limits = scaled_limits(MotionLimits.from_config(profile.safety, self.robot.spec), self.motion.speed_scale)
         self.dt = 1.0 / profile.robot.control_rate_hz
         self.timer = TrajectoryTimer(
             self.limits, self.dt, self.robot.joint_names, self.robot.tcp_positions, profile.safety.max_tcp_speed_m_s
@@ -136,15 +138,25 @@ class Chain:
         except CartesianPathError as e:
             raise StageError(f"{what}: {e}") from None
 
+    def planner(self, world: CollisionWorld) -> Planner:
+        return Planner(world, self.limits, self.motion.planner_config())
+
     def free(self, planner: Planner, qa: np.ndarray, qb: np.ndarray, what: str) -> np.ndarray:
+        """A collision-free joint path; with blending, its corners cut where that stays clear (for a smooth pass)."""
         try:
-            return planner.plan(qa, qb).waypoints
+            waypoints = planner.plan(qa, qb).waypoints
         except PlanningError as e:
             raise StageError(f"{what}: {e}") from None
+        return planner.smooth(waypoints) if self.motion.blend_free_moves else waypoints
 
-    def approved(self, steps: list, world: CollisionWorld, q_start: np.ndarray, what: str) -> ApprovedTrajectory:
+    def approved(
+        self, steps: list, world: CollisionWorld, q_start: np.ndarray, what: str, free_move: bool = False
+    ) -> ApprovedTrajectory:
+        """Timed and approved by the gate. A free move (no contact in it) may blend through its waypoints, kept only
+        where the gate accepts the bent path; everything else rests at each waypoint, on the checked lines."""
+        blend = free_move and self.motion.blend_free_moves
         try:
-            trajectory = self.timer.time(steps)
+            trajectory = self.timer.time(steps, blend=blend, check=gate_check(world, q_start) if blend else None)
             return approve(trajectory, world, q_current=q_start)
         except TimingError as e:
             raise StageError(f"{what}: timing failed: {e}") from None
@@ -157,17 +169,19 @@ def plan_grasp(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     open_w = poses.open_width_m or g.max_width_m
     before = chain.world(g.max_width_m, obstacle=chain.target_points)  # the object is an obstacle until touched
     q_pre = chain.goal_q(before, poses.T_pre, chain.q0, "pre-grasp pose")
-    to_pre = chain.free(Planner(before, chain.limits), chain.q0, q_pre, "path to the pre-grasp pose")
-    approach = chain.approved([to_pre, GripperAction("open", OPEN_S, open_w)], before, chain.q0, "approach")
+    to_pre = chain.free(chain.planner(before), chain.q0, q_pre, "path to the pre-grasp pose")
+    approach = chain.approved(
+        [to_pre, GripperAction("open", OPEN_S, open_w)], before, chain.q0, "approach", free_move=True
+    )
 
     touching = chain.world(open_w)  # the approach ended opening the fingers to open_w: no wider down to the grasp
-    planner = Planner(touching, chain.limits)
+    planner = chain.planner(touching)
     down = chain.line(planner, q_pre, poses.T_contact, "approach to the grasp")
     lift = chain.line(planner, down[-1], lifted(poses.T_contact, LIFT_M), "lift after the grasp")
     grasp = chain.approved([down, GripperAction("close", CLOSE_S, poses.width_m), lift], touching, q_pre, "grasp")
 
     carry_world = chain.world(poses.width_m, held=poses.held)
-    carry_planner = Planner(carry_world, chain.limits)
+    carry_planner = chain.planner(carry_world)
     T_place = lifted(poses.T_goal, PLACE_CLEARANCE_M + chain.safety.padding_m)
     q_above = chain.goal_q(carry_world, lifted(T_place, LIFT_M), lift[-1], "pose above the place")
     to_above = chain.free(carry_planner, lift[-1], q_above, "carry path")
@@ -176,7 +190,7 @@ def plan_grasp(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     carry = chain.approved([to_above, place, release], carry_world, lift[-1], "carry")
 
     released = chain.world(g.max_width_m)
-    up = chain.line(Planner(released, chain.limits), place[-1], lifted(T_place, LIFT_M), "retreat")
+    up = chain.line(chain.planner(released), place[-1], lifted(T_place, LIFT_M), "retreat")
     retreat = chain.approved([up], released, place[-1], "retreat")
     home = _home(chain, poses, g.max_width_m, up[-1])
     phases = (approach, grasp, carry, retreat, home)
@@ -188,11 +202,13 @@ def plan_push(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
     g = chain.robot.spec.gripper
     before = chain.world(g.max_width_m, obstacle=chain.target_points)
     q_pre = chain.goal_q(before, poses.T_pre, chain.q0, "pre-push pose")
-    to_pre = chain.free(Planner(before, chain.limits), chain.q0, q_pre, "path to the pre-push pose")
-    approach = chain.approved([to_pre, GripperAction("close", CLOSE_S, g.min_width_m)], before, chain.q0, "approach")
+    to_pre = chain.free(chain.planner(before), chain.q0, q_pre, "path to the pre-push pose")
+    approach = chain.approved(
+        [to_pre, GripperAction("close", CLOSE_S, g.min_width_m)], before, chain.q0, "approach", free_move=True
+    )
 
     touching = chain.world(g.min_width_m)
-    planner = Planner(touching, chain.limits)
+    planner = chain.planner(touching)
     path = [chain.line(planner, q_pre, poses.T_contact, "approach to the push")]
     for k, T in enumerate((*poses.via, poses.T_goal), start=1):
         what = f"push (arc pose {k} of {len(poses.via) + 1})" if poses.via else "push"
@@ -208,8 +224,8 @@ def plan_push(chain: Chain, poses: ContactPoses) -> ManipulationPlan:
 def _home(chain: Chain, poses: ContactPoses, width_m: float, q_start: np.ndarray) -> ApprovedTrajectory:
     """Back to the home posture, with the object where it now is as an obstacle."""
     world = chain.world(width_m, obstacle=transform_points(poses.object_motion, chain.target_points))
-    path = chain.free(Planner(world, chain.limits), q_start, chain.home, "path home")
-    return chain.approved([path], world, q_start, "home")
+    path = chain.free(chain.planner(world), q_start, chain.home, "path home")
+    return chain.approved([path], world, q_start, "home", free_move=True)
 
 
 def plan_manipulation(chain: Chain, poses: ContactPoses) -> ManipulationPlan:

@@ -17,7 +17,7 @@ from motion.executor import Executor, ExecutorConfig
 from motion.limits import MotionLimits
 from runtime.context import RunContext, StageError
 from runtime.devices import open_devices
-from runtime.manipulation import Chain, ContactPoses, plan_manipulation
+from runtime.manipulation import CLOSE_S, OPEN_S, Chain, ContactPoses, plan_manipulation
 from runtime.record import RunRecord
 from runtime.sim_oracle import top_down_grasp
 from safety.geometry import Primitive
@@ -96,3 +96,32 @@ def test_the_descent_to_the_grasp_checks_the_fingers_at_the_opening_commanded(sc
     assert chain.world(0.085).in_collision(q_contact) and not chain.world(0.066).in_collision(q_contact)
     plan = plan_manipulation(chain, poses)
     assert plan.phase_names[1] == "grasp" and plan.phases[1].report.ok
+
+
+def test_motion_section_scales_the_speed_of_the_whole_plan(scene):
+    ctx, dev = scene
+    poses = grasp_poses(dev, np.array([0.0, 0.15, 0.0]))
+    full = plan_manipulation(Chain(ctx), poses)
+    slow_profile = ctx.profile.model_copy(update={"motion": ctx.profile.motion.model_copy(update={"speed_scale": 0.5})})
+    slow = plan_manipulation(Chain(replace(ctx, profile=slow_profile)), poses)
+    assert all(p.report.ok for p in slow.phases)
+    assert max(slow.peak_joint_speed_rad_s) <= 0.5 * ctx.profile.safety.max_joint_velocity_rad_s + 1e-6
+    waits = OPEN_S + CLOSE_S + OPEN_S  # the gripper's open, close and release do not scale
+    assert slow.duration_s - waits > 1.6 * (full.duration_s - waits)
+
+
+def test_free_moves_blend_through_their_waypoints_unless_the_profile_says_no(scene):
+    ctx, _ = scene
+    chain = Chain(ctx)
+    world = chain.world(chain.robot.spec.gripper.max_width_m)
+    q0 = chain.q0
+    corner = q0 + np.array([0.4, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0])
+    path = np.array([q0, corner, corner + np.array([0.0, 0.0, 0.0, 0.3, 0.0, 0.0, 0.0])])
+    stop = chain.approved([path], world, q0, "stop")
+    blended = chain.approved([path], world, q0, "blended", free_move=True)
+    assert blended.report.ok and blended.trajectory.duration_s < 0.95 * stop.trajectory.duration_s
+    no_blend = ctx.profile.model_copy(
+        update={"motion": ctx.profile.motion.model_copy(update={"blend_free_moves": False})}
+    )
+    kept = Chain(replace(ctx, profile=no_blend)).approved([path], world, q0, "kept", free_move=True)
+    assert kept.trajectory.duration_s == pytest.approx(stop.trajectory.duration_s)
