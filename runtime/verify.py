@@ -51,15 +51,19 @@ def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
     """The symmetry of the object whose seen points (N, 3) are given, or None (a box, a pan: every turn shows)."""
     from runtime.stages import require  # pipeline modules are optional at import time, as for every stage
 
-    revolution_axes = require("verification", "pipeline.contact.symmetry", "revolution_axes")
-    axes = revolution_axes(points_camera)
-    if not axes:
+    revolution_axis, tolerance = require(
+        "verification", "pipeline.contact.symmetry", "revolution_axis", "TOLERANCE_REL"
+    )
+    axis = revolution_axis(points_camera)
+    if axis is None:
         return None
-    if len(axes) == 1:
-        return Symmetry(axes[0].point, axes[0].direction)
-    P = np.asarray(points_camera, dtype=np.float64)  # round about two axes: a ball; |x|^2 = 2 c.x + k
+    P = np.asarray(points_camera, dtype=np.float64)  # a ball: on one sphere, |x|^2 = 2 c.x + k
     centre = np.linalg.lstsq(np.column_stack([2 * P, np.ones(len(P))]), (P**2).sum(axis=1), rcond=None)[0][:3]
-    return Symmetry(centre, None)
+    radius = np.linalg.norm(P - centre, axis=1)
+    off = float(np.median(np.abs(radius - np.median(radius))))
+    if off <= tolerance * float(np.linalg.norm(np.ptp(P, axis=0))):
+        return Symmetry(centre, None)
+    return Symmetry(axis.point, axis.direction)
 
 
 def without_turn_about(R: np.ndarray, axis: np.ndarray) -> np.ndarray:

@@ -57,21 +57,14 @@ def _fit(points: np.ndarray, axis: np.ndarray, size: float) -> RevolutionAxis:
     return RevolutionAxis(point, axis, float(np.median(radius)), residual)
 
 
-def revolution_axes(points: np.ndarray) -> list[RevolutionAxis]:
-    """Every principal direction the points (N, 3) revolve about, best first: one for a can or a bottle, all three
-    for a ball, none for a box."""
-    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    if len(P) < MIN_POINTS:
-        return []
-    size = float(np.linalg.norm(np.ptp(P, axis=0)))
-    if size <= 0.0:
-        return []
-    directions = np.linalg.svd(P - P.mean(axis=0), full_matrices=False)[2]
-    fits = sorted((_fit(P, d, size) for d in directions), key=lambda f: f.residual_rel)
-    return [f for f in fits if f.residual_rel <= TOLERANCE_REL]
-
-
 def revolution_axis(points: np.ndarray) -> RevolutionAxis | None:
     """The axis of the body of revolution the points (N, 3) lie on, or None when they lie on none."""
-    axes = revolution_axes(points)
-    return axes[0] if axes else None
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(P) < MIN_POINTS:
+        return None
+    size = float(np.linalg.norm(np.ptp(P, axis=0)))
+    if size <= 0.0:
+        return None
+    directions = np.linalg.svd(P - P.mean(axis=0), full_matrices=False)[2]
+    best = min((_fit(P, d, size) for d in directions), key=lambda f: f.residual_rel)
+    return best if best.residual_rel <= TOLERANCE_REL else None

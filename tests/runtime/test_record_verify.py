@@ -90,6 +90,11 @@ def test_object_symmetry_finds_a_ball_an_upright_can_and_no_box():
     upright = object_symmetry(seen(can, can_centre))
     assert upright is not None and abs(upright.axis[1]) > 0.99
     assert np.linalg.norm((upright.centre - can_centre)[[0, 2]]) < 0.003
+    theta, x = rng.uniform(0, 2 * np.pi, 3000), rng.uniform(-0.09, 0.09, 3000)
+    bottle_centre = np.array([0.05, 0.1, 0.85])
+    bottle = bottle_centre + np.column_stack([x, 0.03 * np.cos(theta), 0.03 * np.sin(theta)])  # lying along x
+    lying = object_symmetry(seen(bottle, bottle_centre))
+    assert lying is not None and lying.axis is not None and abs(lying.axis[0]) > 0.99  # a cylinder, not a ball
     u, v = rng.uniform(-0.025, 0.025, (2, 3000))
     half = np.full_like(u, 0.025)
     faces = np.concatenate(
