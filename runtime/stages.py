@@ -296,7 +296,15 @@ def _object_poses(world) -> dict[str, np.ndarray]:
 
 
 def _truth(ctx: RunContext) -> dict:
-    """Simulator ground truth for the record and benchmarks (never used to decide success)."""
+    """Simulator ground truth for the record and benchmarks (never used to decide success): how far every object
+    moved, and for the one that moved most, how far its origin ended from where the goal motion puts it."""
     before, after = ctx.extras["truth_before"], ctx.extras["truth_after"]
     moved = {n: float(np.linalg.norm(after[n][:3, 3] - before[n][:3, 3])) for n in before}
-    return {"object_displacement_m": moved}
+    out: dict = {"object_displacement_m": moved}
+    motion = getattr(ctx, "motion", None)
+    if moved and motion is not None and motion.ok and motion.T_base_camera is not None:
+        name = max(moved, key=moved.get)
+        T = motion.T_base
+        goal = T[:3, :3] @ before[name][:3, 3] + T[:3, 3]
+        out |= {"target": name, "target_goal_error_m": float(np.linalg.norm(after[name][:3, 3] - goal))}
+    return out

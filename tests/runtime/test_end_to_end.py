@@ -56,3 +56,5 @@ def test_goalvla_run_with_every_real_stage(sim_config_path, tmp_path):
     assert result.status == State.DONE, result.reason
     assert result.summary["contact_used"].startswith("pipeline.contact #")
     assert np.linalg.norm(block[:2] - plate[:2]) < 0.06
+    truth = result.summary["sim_truth"]  # the record's ground truth names the moved object and its real miss
+    assert truth["target"] == "red_block" and truth["target_goal_error_m"] < 0.03
