@@ -64,7 +64,7 @@ class PipelineStages:
     def capture(self, ctx: RunContext) -> None:
         ctx.frame0 = self._capture(ctx, "capture")
         if ctx.devices.world is not None:
-            ctx.extras["truth_before"] = _object_poses(ctx.devices.world)
+            ctx.extras["truth_before"] = _object_centres(ctx.devices.world)
 
     # -- reasoning ----------------------------------------------------------------------------------------
     def reason(self, ctx: RunContext) -> None:
@@ -220,7 +220,7 @@ class PipelineStages:
         time.sleep(0.3)  # let the object settle after release
         frame1 = ctx.frame1 = self._capture(ctx, "after")
         if ctx.devices.world is not None:
-            ctx.extras["truth_after"] = _object_poses(ctx.devices.world)
+            ctx.extras["truth_after"] = _object_centres(ctx.devices.world)
             ctx.record.note(sim_truth=_truth(ctx))
         moved_mm, moved_deg = camera_moved(ctx.frame0.T_base_camera, frame1.T_base_camera)
         if moved_mm > CAMERA_STILL_MM or moved_deg > CAMERA_STILL_DEG:
@@ -291,20 +291,36 @@ def _mask_picture(rgb: np.ndarray, mask_init: np.ndarray, mask_goal: np.ndarray)
     return out
 
 
-def _object_poses(world) -> dict[str, np.ndarray]:
-    return {o.name: world.object_pose(o.name) for o in world.scene.objects}
+def _object_centres(world) -> dict[str, np.ndarray]:
+    """Each object's centre (the mean of its shapes' centres: on the axis of a body of revolution, so an unseen
+    turn about that axis does not move it), and each hinge's angle under "<hinge joint> [deg]"."""
+    from drivers.sim.gl import mujoco
+
+    m, d = world.model, world.data
+    out = {}
+    with world.lock:
+        for o in world.scene.objects:
+            root = m.body(o.name).id
+            out[o.name] = d.geom_xpos[np.flatnonzero(m.body_rootid[m.geom_bodyid] == root)].mean(axis=0)
+            for j in np.flatnonzero(m.body_rootid[m.jnt_bodyid] == root):
+                if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:  # an object's part: a lid
+                    out[f"{m.joint(j).name} [deg]"] = np.array([np.degrees(d.qpos[m.jnt_qposadr[j]])])
+    return out
 
 
 def _truth(ctx: RunContext) -> dict:
     """Simulator ground truth for the record and benchmarks (never used to decide success): how far every object
-    moved, and for the one that moved most, how far its origin ended from where the goal motion puts it."""
+    moved, hinge angles, and for a whole object that was moved, how far its centre ended from where the goal
+    motion puts it (a hinged part's truth is its hinge angle)."""
     before, after = ctx.extras["truth_before"], ctx.extras["truth_after"]
-    moved = {n: float(np.linalg.norm(after[n][:3, 3] - before[n][:3, 3])) for n in before}
+    moved = {n: float(np.linalg.norm(after[n] - before[n])) for n in before if not n.endswith("[deg]")}
     out: dict = {"object_displacement_m": moved}
+    out |= {n: float(after[n][0]) for n in after if n.endswith("[deg]")}
     motion = getattr(ctx, "motion", None)
-    if moved and motion is not None and motion.ok and motion.T_base_camera is not None:
+    hinged = getattr(ctx.goal, "mask_anchor", None) is not None
+    if moved and not hinged and motion is not None and motion.ok and motion.T_base_camera is not None:
         name = max(moved, key=moved.get)
         T = motion.T_base
-        goal = T[:3, :3] @ before[name][:3, 3] + T[:3, 3]
-        out |= {"target": name, "target_goal_error_m": float(np.linalg.norm(after[name][:3, 3] - goal))}
+        goal = T[:3, :3] @ before[name] + T[:3, 3]
+        out |= {"target": name, "target_goal_error_m": float(np.linalg.norm(after[name] - goal))}
     return out

@@ -51,3 +51,5 @@ def test_goalvla_run_closes_the_lid(sim_config_path, tmp_path):
     assert [e["status"] for e in result.summary["execution"]] == ["completed"] * 3
     assert lid_deg < 15.0, f"ground truth: the lid is still open {lid_deg:.0f} deg"
     assert max(abs(moved)) < 0.01  # the box itself stayed where it was
+    truth = result.summary["sim_truth"]  # the record's truth of a hinged part is its angle, not a centre's miss
+    assert truth["box_hinge [deg]"] == pytest.approx(lid_deg, abs=2.0) and "target_goal_error_m" not in truth
