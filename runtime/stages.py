@@ -238,24 +238,34 @@ class PipelineStages:
         ctx.record.image("mask_after", mask1)
         frame0, mask0 = ctx.frame0, ctx.goal.mask_init
         anchor = getattr(ctx.goal, "mask_anchor", None)  # a hinged part: measured as a turn about it, like its goal
-        inp = GroundingInput(
-            frame0.rgb, frame0.depth, mask0, frame1.rgb, frame1.depth, "depth", mask1, frame0.intrinsics, anchor
-        )
-        achieved = ground(
-            inp, self._features_backend(ctx), ctx.profile.pipeline.grounding, T_base_camera=frame0.T_base_camera
-        )
-        ctx.record.note(achieved_motion=_motion_json(achieved))
-        if not achieved.ok:
-            return Verification(False, f"could not measure the achieved motion: {achieved.reason}")
         points = frame0.intrinsics.unproject_depth_image(frame0.depth)[mask0 & np.isfinite(frame0.depth)]
         symmetry = None if anchor is not None else object_symmetry(points)
+        after = None
+        if symmetry is not None and symmetry.axis is None:  # a ball: its centre is all a registration could tell
+            after = object_symmetry(
+                frame1.intrinsics.unproject_depth_image(frame1.depth)[mask1 & np.isfinite(frame1.depth)]
+            )
+        if after is not None and after.axis is None:
+            achieved_R, achieved_t = np.eye(3), after.centre - symmetry.centre
+            ctx.record.note(achieved_motion={"ok": True, "ball_centre_shift_m": achieved_t.tolist()})
+        else:
+            inp = GroundingInput(
+                frame0.rgb, frame0.depth, mask0, frame1.rgb, frame1.depth, "depth", mask1, frame0.intrinsics, anchor
+            )
+            achieved = ground(
+                inp, self._features_backend(ctx), ctx.profile.pipeline.grounding, T_base_camera=frame0.T_base_camera
+            )
+            ctx.record.note(achieved_motion=_motion_json(achieved))
+            if not achieved.ok:
+                return Verification(False, f"could not measure the achieved motion: {achieved.reason}")
+            achieved_R, achieved_t = achieved.R, achieved.t
         goal = ctx.motion
         cfg = ctx.profile.runtime
         return compare(
             goal.R,
             goal.t,
-            achieved.R,
-            achieved.t,
+            achieved_R,
+            achieved_t,
             object_centre(points),
             frame0.T_base_camera[:3, :3],
             cfg.verify_position_tol_m,
