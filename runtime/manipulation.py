@@ -142,19 +142,20 @@ class Chain:
         return Planner(world, self.limits, self.motion.planner_config())
 
     def free(self, planner: Planner, qa: np.ndarray, qb: np.ndarray, what: str) -> np.ndarray:
-        """A collision-free joint path; with blending, its corners cut where that stays clear (for a smooth pass)."""
         try:
-            waypoints = planner.plan(qa, qb).waypoints
+            return planner.plan(qa, qb).waypoints
         except PlanningError as e:
             raise StageError(f"{what}: {e}") from None
-        return planner.smooth(waypoints) if self.motion.blend_free_moves else waypoints
 
     def approved(
         self, steps: list, world: CollisionWorld, q_start: np.ndarray, what: str, free_move: bool = False
     ) -> ApprovedTrajectory:
-        """Timed and approved by the gate. A free move (no contact in it) may blend through its waypoints, kept only
-        where the gate accepts the bent path; everything else rests at each waypoint, on the checked lines."""
+        """Timed and approved by the gate. A free move (no contact in it) may blend through its waypoints, its
+        corners cut where that stays clear and kept only where the gate accepts the bent path; everything else
+        rests at each waypoint, on the checked lines."""
         blend = free_move and self.motion.blend_free_moves
+        if blend:  # only paths with corners (a direct move has none, and cutting builds an inflated world)
+            steps = [self.planner(world).smooth(s) if isinstance(s, np.ndarray) and len(s) > 2 else s for s in steps]
         try:
             trajectory = self.timer.time(steps, blend=blend, check=gate_check(world, q_start) if blend else None)
             return approve(trajectory, world, q_current=q_start)

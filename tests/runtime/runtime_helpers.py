@@ -19,6 +19,19 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def sim_run_profile(sim_config_path, scene: str, seed: int, robot_id: str = "e2e"):
+    """The sim profile for one whole run of a scene and seed, on its own loopback Zenoh port."""
+    from runtime.config import load_profile
+
+    return load_profile(
+        sim_config_path,
+        {
+            "sim": {"seed": seed, "scene": scene},
+            "runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": robot_id},
+        },
+    )
+
+
 def wait_for(predicate, timeout_s: float = 3.0, period_s: float = 0.005) -> bool:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:

@@ -6,9 +6,8 @@ from __future__ import annotations
 import math
 
 import pytest
-from runtime_helpers import free_port
+from runtime_helpers import sim_run_profile
 
-from runtime.config import load_profile
 from runtime.contact_adapter import contact_mode
 from runtime.devices import open_devices
 from runtime.runner import Runtime
@@ -31,13 +30,7 @@ def test_the_instruction_picks_the_contact_mode(instruction, mode):
 
 @pytest.mark.slow
 def test_goalvla_run_closes_the_lid(sim_config_path, tmp_path):
-    profile = load_profile(
-        sim_config_path,
-        {
-            "sim": {"scene": "close_lid", "seed": 100},
-            "runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": "close_lid"},
-        },
-    )
+    profile = sim_run_profile(sim_config_path, "close_lid", 100, "close_lid")
     with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm="yes") as rt:
         world = devices.world
         box = world.object_pose("box")

@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from runtime_helpers import free_port
+from runtime_helpers import sim_run_profile
 
-from runtime.config import load_profile
 from runtime.contact_adapter import held_box
 from runtime.devices import open_devices
 from runtime.runner import Runtime
@@ -32,13 +31,7 @@ def test_held_box_is_mirrored_across_the_closing_axis_only():
 
 @pytest.mark.slow
 def test_goalvla_run_stands_the_bottle_up(sim_config_path, tmp_path):
-    profile = load_profile(
-        sim_config_path,
-        {
-            "sim": {"scene": "bottle_standup", "seed": 105},
-            "runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": "bottle_standup"},
-        },
-    )
+    profile = sim_run_profile(sim_config_path, "bottle_standup", 105, "bottle_standup")
     with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm="yes") as rt:
         lying = devices.world.object_pose("bottle_shape")[:3, 2]  # the bottle's axis (the shape's own z)
         result = rt.run("stand the green bottle up", tmp_path / "run")

@@ -12,9 +12,8 @@ import json
 
 import numpy as np
 import pytest
-from runtime_helpers import free_port
+from runtime_helpers import sim_run_profile
 
-from runtime.config import load_profile
 from runtime.devices import open_devices
 from runtime.runner import Runtime
 from runtime.sim_oracle import GroundTruthGraspStages
@@ -24,18 +23,8 @@ from runtime.states import State
 pytestmark = pytest.mark.slow
 
 
-def _profile(sim_config_path, seed: int, scene: str = "tabletop"):
-    return load_profile(
-        sim_config_path,
-        {
-            "sim": {"seed": seed, "scene": scene},
-            "runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": "e2e"},
-        },
-    )
-
-
 def test_put_the_red_block_on_the_plate(sim_config_path, tmp_path):
-    profile = _profile(sim_config_path, seed=3)
+    profile = sim_run_profile(sim_config_path, "tabletop", 3)
     stages = GroundTruthGraspStages()
     with open_devices(profile) as devices, Runtime(profile, devices, stages, confirm="yes") as rt:
         result = rt.run("put the red block on the white plate", tmp_path / "run")
@@ -51,7 +40,7 @@ def test_put_the_red_block_on_the_plate(sim_config_path, tmp_path):
 
 
 def test_goalvla_run_with_every_real_stage(sim_config_path, tmp_path):
-    profile = _profile(sim_config_path, seed=0)
+    profile = sim_run_profile(sim_config_path, "tabletop", 0)
     with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm="yes") as rt:
         result = rt.run("put the red block on the white plate", tmp_path / "run")
         plate = devices.world.object_pose("white_plate")[:3, 3]
@@ -65,7 +54,7 @@ def test_goalvla_run_with_every_real_stage(sim_config_path, tmp_path):
 
 def test_a_ball_is_verified_by_its_centre_alone(sim_config_path, tmp_path):
     """A ball shows no turn, so verification compares its fitted centre before and after, no registration."""
-    profile = _profile(sim_config_path, seed=118, scene="tomato_pan")
+    profile = sim_run_profile(sim_config_path, "tomato_pan", 118)
     with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm="yes") as rt:
         result = rt.run("put the red ball in the pan", tmp_path / "run")
     assert result.status == State.DONE, result.reason
