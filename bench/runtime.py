@@ -43,9 +43,9 @@ TASKS = [
 ]
 SENDER = """
 import sys, time
-from runtime.bus import Bus
+from runtime.messaging.bus import Bus
 from runtime.config import ZenohConfig
-from runtime.messages import EStop
+from runtime.messaging.messages import EStop
 bus = Bus(ZenohConfig(endpoint=sys.argv[1]), "bench", "connect")
 n, gap = int(sys.argv[2]), float(sys.argv[3])
 time.sleep(1.0)  # let the session connect
@@ -66,11 +66,11 @@ def free_port() -> int:
 
 
 def estop_latency(trials: int) -> dict:
-    from runtime.bus import Bus
     from runtime.config import RuntimeConfig, ZenohConfig, load_profile
     from runtime.devices import open_devices
-    from runtime.states import StateMachine
-    from runtime.supervisor import Supervisor
+    from runtime.messaging.bus import Bus
+    from runtime.supervision.states import StateMachine
+    from runtime.supervision.supervisor import Supervisor
 
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     profile = load_profile(CONFIG)
@@ -87,7 +87,7 @@ def estop_latency(trials: int) -> dict:
         arm.stop = timed_stop  # the bench's probe: the instant the supervisor commands the stop
         cfg = RuntimeConfig(robot_id="bench", zenoh=ZenohConfig(endpoint=endpoint))
         bus = Bus(cfg.zenoh, cfg.robot_id, "listen")
-        from runtime.messages import EStop
+        from runtime.messaging.messages import EStop
 
         bus.subscribe(bus.keys.estop, EStop, lambda k, m: sent.append(m.stamp_s))
         machine = StateMachine(cfg.budgets_s)
@@ -111,14 +111,14 @@ def estop_latency(trials: int) -> dict:
 def runs(count: int, out_dir: Path, contact: str) -> dict:
     from runtime.config import load_profile
     from runtime.devices import open_devices
-    from runtime.runner import Runtime
-    from runtime.stages import PipelineStages
+    from runtime.run.runner import Runtime
+    from runtime.run.stages import PipelineStages
 
     scenes_dir = REPO / "configs" / "scenes"
     tasks = [t for t in TASKS if (scenes_dir / f"{t[0]}.yaml").exists()]
     skipped = sorted({t[0] for t in TASKS} - {t[0] for t in tasks})
     if contact == "oracle":
-        from runtime.sim_oracle import GroundTruthGraspStages
+        from runtime.sim_truth.oracle import GroundTruthGraspStages
 
         stages = GroundTruthGraspStages()
     else:
@@ -198,7 +198,7 @@ def main() -> None:
         choices=("pipeline", "oracle"),
         default="pipeline",
         help="pipeline: pipeline.contact, exactly as `goalvla run`; oracle: the simulator's ground-truth grasp "
-        "(runtime.sim_oracle), to measure everything else while contact is missing or under test",
+        "(runtime.sim_truth.oracle), to measure everything else while contact is missing or under test",
     )
     args = parser.parse_args()
     console = Console()

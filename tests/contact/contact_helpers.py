@@ -6,7 +6,7 @@ import numpy as np
 
 from pipeline.contact.clouds import target_and_scene
 
-HAND_REGION_M = 0.07  # as runtime.manipulation: scene points this close to the TCP at capture are the hand's
+HAND_REGION_M = 0.07  # as motion.manipulation.phases: scene points this close to the TCP at capture are the hand's
 
 
 def clouds(world, camera, robot, name: str, body: str | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

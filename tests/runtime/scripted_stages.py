@@ -15,8 +15,8 @@ import uuid
 import numpy as np
 
 from motion.interpolate import minimum_jerk_path
-from runtime.context import RunContext, StageError, Verification
-from runtime.messages import PlanSummary
+from runtime.messaging.messages import PlanSummary
+from runtime.run.context import RunContext, StageError, Verification
 
 MOVE_RAD = np.array([0.35, 0.25, 0.0, -0.25, 0.0, 0.2, 0.35])
 

@@ -9,9 +9,9 @@ import pytest
 from runtime_helpers import free_port
 from typer.testing import CliRunner
 
-from runtime.cli import app
-from runtime.launch import EXIT_CODES
-from runtime.states import State
+from runtime.commands.cli import app
+from runtime.commands.launch import EXIT_CODES
+from runtime.supervision.states import State
 
 runner = CliRunner()
 

@@ -8,11 +8,11 @@ import math
 import pytest
 from runtime_helpers import sim_run_profile
 
-from runtime.contact_adapter import contact_mode
 from runtime.devices import open_devices
-from runtime.runner import Runtime
-from runtime.stages import PipelineStages
-from runtime.states import State
+from runtime.run.contact import contact_mode
+from runtime.run.runner import Runtime
+from runtime.run.stages import PipelineStages
+from runtime.supervision.states import State
 
 
 @pytest.mark.parametrize(

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from runtime_helpers import sim_run_profile
 
-from runtime.contact_adapter import held_box
 from runtime.devices import open_devices
-from runtime.runner import Runtime
-from runtime.stages import PipelineStages
-from runtime.states import State
+from runtime.run.contact import held_box
+from runtime.run.runner import Runtime
+from runtime.run.stages import PipelineStages
+from runtime.supervision.states import State
 
 
 def test_held_box_is_mirrored_across_the_closing_axis_only():

@@ -1,7 +1,7 @@
 """Whole runs on the sim through the real stages: reasoning (offline backends), grounding, the manipulation
 chain, the gate, the executor and verification, with the runtime's supervision and record around them.
 
-One run takes the contact decision from runtime.sim_oracle (a top-down grasp of the target at the simulator's
+One run takes the contact decision from runtime.sim_truth.oracle (a top-down grasp of the target at the simulator's
 pose of it), so that everything downstream of contact (goal pose = grounded motion applied to the grasp, planning,
 gate, execution, verification by re-grounding) is tested on its own; another runs every real stage, pipeline.contact
 included."""
@@ -15,10 +15,10 @@ import pytest
 from runtime_helpers import sim_run_profile
 
 from runtime.devices import open_devices
-from runtime.runner import Runtime
-from runtime.sim_oracle import GroundTruthGraspStages
-from runtime.stages import PipelineStages
-from runtime.states import State
+from runtime.run.runner import Runtime
+from runtime.run.stages import PipelineStages
+from runtime.sim_truth.oracle import GroundTruthGraspStages
+from runtime.supervision.states import State
 
 pytestmark = pytest.mark.slow
 

@@ -1,6 +1,6 @@
 """The manipulation chain (motion + safety, phase by phase) moves a real sim object where the contact poses say.
 
-The contact poses come from the simulator's ground truth (runtime.sim_oracle), standing in for the contact
+The contact poses come from the simulator's ground truth (runtime.sim_truth.oracle), standing in for the contact
 stage so that the chain itself is what is tested: planning, per-phase gate approval, streaming."""
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ import pytest
 from drivers.description import load_robot_spec
 from motion.executor import Executor, ExecutorConfig
 from motion.limits import MotionLimits
-from runtime.context import RunContext, StageError
+from motion.manipulation.phases import CLOSE_S, OPEN_S, Chain, ContactPoses, plan_manipulation
 from runtime.devices import open_devices
-from runtime.manipulation import CLOSE_S, OPEN_S, Chain, ContactPoses, plan_manipulation
-from runtime.record import RunRecord
-from runtime.sim_oracle import top_down_grasp
+from runtime.run.context import RunContext, StageError
+from runtime.run.record import RunRecord
+from runtime.sim_truth.oracle import top_down_grasp
 from safety.geometry import Primitive
 
 pytestmark = pytest.mark.slow

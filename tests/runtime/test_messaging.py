@@ -10,9 +10,9 @@ import zenoh
 from pydantic import ValidationError
 from runtime_helpers import wait_for
 
-from runtime.bus import Bus, session_config
 from runtime.config import ConfigError, ZenohConfig, load_profile
-from runtime.messages import Confirm, EStop, Heartbeat, Keys
+from runtime.messaging.bus import Bus, session_config
+from runtime.messaging.messages import Confirm, EStop, Heartbeat, Keys
 
 
 def test_key_space():

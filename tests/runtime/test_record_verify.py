@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from pipeline.grounding.compare import Symmetry, compare, object_symmetry
 from runtime.config import StateBudgets
-from runtime.context import StageUnavailable
-from runtime.record import RunRecord
-from runtime.stages import require
-from runtime.states import State, StateMachine
-from runtime.verify import Symmetry, compare, object_symmetry
+from runtime.run.context import StageUnavailable
+from runtime.run.record import RunRecord
+from runtime.run.stages import require
+from runtime.supervision.states import State, StateMachine
 
 
 def yaw(deg: float) -> np.ndarray:
@@ -142,4 +142,4 @@ def test_missing_module_is_reported_not_faked():
     with pytest.raises(StageUnavailable, match=r"pipeline\.nothing_here is not available .* the contact stage"):
         require("contact", "pipeline.nothing_here", "plan_contact")
     with pytest.raises(StageUnavailable, match="has no no_such_function"):
-        require("verification", "runtime.verify", "compare", "no_such_function")
+        require("verification", "pipeline.grounding.compare", "compare", "no_such_function")

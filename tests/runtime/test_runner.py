@@ -12,13 +12,13 @@ import pytest
 from runtime_helpers import free_port, wait_for
 from scripted_stages import ScriptedStages
 
-from runtime.bus import Bus
 from runtime.config import load_profile
 from runtime.devices import open_devices
-from runtime.estop import EStopNode
-from runtime.messages import Command, Confirm, Event
-from runtime.runner import Runtime
-from runtime.states import State
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import Command, Confirm, Event
+from runtime.run.runner import Runtime
+from runtime.supervision.estop import EStopNode
+from runtime.supervision.states import State
 
 pytestmark = pytest.mark.slow
 

@@ -8,10 +8,10 @@ import types
 import numpy as np
 import pytest
 
-from runtime.context import RunContext, StageError
 from runtime.devices import open_devices
-from runtime.record import RunRecord
-from runtime.stages import PipelineStages
+from runtime.run.context import RunContext, StageError
+from runtime.run.record import RunRecord
+from runtime.run.stages import PipelineStages
 
 pytest.importorskip("pipeline.grounding.ground", reason="the grounding stage is not part of this build")
 from pipeline.perception.depth import RelativeDepth

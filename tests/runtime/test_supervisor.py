@@ -7,12 +7,12 @@ import time
 import pytest
 from runtime_helpers import RecordingArm, wait_for
 
-from runtime.bus import Bus
 from runtime.config import StateBudgets
-from runtime.estop import EStopNode
-from runtime.messages import Command, JointStateMsg
-from runtime.states import State, StateMachine
-from runtime.supervisor import Supervisor
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import Command, JointStateMsg
+from runtime.supervision.estop import EStopNode
+from runtime.supervision.states import State, StateMachine
+from runtime.supervision.supervisor import Supervisor
 
 TO_EXECUTING = (State.CAPTURING, State.REASONING, State.GROUNDING, State.PLANNING, State.AWAITING_CONFIRM)
 

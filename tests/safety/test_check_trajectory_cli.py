@@ -9,7 +9,7 @@ import pytest
 from trajectories import NAMES, min_jerk
 from typer.testing import CliRunner
 
-from runtime.cli import app
+from runtime.commands.cli import app
 from safety.robot_model import RobotModel
 
 runner = CliRunner()

@@ -19,7 +19,7 @@ import zenoh
 from pydantic import ValidationError
 
 from runtime.config import ZenohConfig
-from runtime.messages import Keys, Message
+from runtime.messaging.messages import Keys, Message
 
 log = logging.getLogger(__name__)
 

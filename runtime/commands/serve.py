@@ -8,8 +8,8 @@ import threading
 import time
 from collections.abc import Callable
 
-from runtime.runner import RunResult, Runtime
-from runtime.states import State, TransitionError
+from runtime.run.runner import RunResult, Runtime
+from runtime.supervision.states import State, TransitionError
 
 PREVIEW_PERIOD_S = 2.0  # camera frames for the console between runs
 

@@ -29,7 +29,7 @@ from motion.limits import MotionLimits
 from motion.planner import Planner, PlanningError
 from motion.segments import scaled_limits
 from motion.timing import GripperAction, TimingError, TrajectoryTimer
-from runtime.context import RunContext, StageError
+from runtime.run.context import RunContext, StageError
 from safety.collision import CollisionWorld
 from safety.geometry import Primitive, transform_points
 from safety.pointcloud import cloud_from_frame

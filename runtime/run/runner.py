@@ -21,18 +21,18 @@ from typing import Literal
 
 from drivers.errors import DriverError
 from drivers.sim.gl import release_context
-from runtime.bus import Bus
 from runtime.config import Profile
-from runtime.confirm import ConfirmGate
-from runtime.context import RunContext, StageError, Stages
 from runtime.devices import Devices
-from runtime.estop import EStopNode
-from runtime.estop_latch import EStopLatch
-from runtime.messages import PlanSummary
-from runtime.record import RunRecord, publish_image, to_bgr
-from runtime.states import TERMINAL, State, StateMachine, Transition, TransitionError
-from runtime.status import StatusPublisher
-from runtime.supervisor import Supervisor
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import PlanSummary
+from runtime.run.context import RunContext, StageError, Stages
+from runtime.run.record import RunRecord, publish_image, to_bgr
+from runtime.supervision.confirm import ConfirmGate
+from runtime.supervision.estop import EStopNode
+from runtime.supervision.estop_latch import EStopLatch
+from runtime.supervision.states import TERMINAL, State, StateMachine, Transition, TransitionError
+from runtime.supervision.status import StatusPublisher
+from runtime.supervision.supervisor import Supervisor
 
 log = logging.getLogger(__name__)
 

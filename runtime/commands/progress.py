@@ -11,7 +11,7 @@ from rich.spinner import Spinner
 from rich.table import Table
 from rich.text import Text
 
-from runtime.states import SEQUENCE, State, Transition
+from runtime.supervision.states import SEQUENCE, State, Transition
 
 STYLE = {State.DONE: "bold green", State.FAILED: "bold yellow", State.ESTOPPED: "bold red"}
 

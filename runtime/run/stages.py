@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from runtime.context import RunContext, StageError, StageUnavailable, Verification
-from runtime.messages import PlanSummary
-from runtime.verify import compare, object_centre, object_symmetry, rotation_deg
+from pipeline.grounding.compare import compare, object_centre, object_symmetry, rotation_deg
+from runtime.messaging.messages import PlanSummary
+from runtime.run.context import RunContext, StageError, StageUnavailable, Verification
 
 log = logging.getLogger(__name__)
 
@@ -117,15 +117,15 @@ class PipelineStages:
 
     # -- planning -----------------------------------------------------------------------------------------
     def contact_candidates(self, ctx: RunContext, chain) -> list:
-        """The contact stage's ranked decisions as runtime.manipulation.ContactPoses."""
-        candidates = require("contact", "runtime.contact_adapter", "contact_candidates")
+        """The contact stage's ranked decisions as motion.manipulation.phases.ContactPoses."""
+        candidates = require("contact", "runtime.run.contact", "contact_candidates")
         return candidates(ctx, chain)
 
     def plan(self, ctx: RunContext) -> PlanSummary:
         """The best-ranked contact whose whole manipulation plans and passes the gate (up to MAX_CONTACTS, each
         PLAN_ATTEMPTS times)."""
-        Chain, plan_manipulation = require("planning", "runtime.manipulation", "Chain", "plan_manipulation")
-        draw_tcp_poses = require("planning", "runtime.overlay", "draw_tcp_poses")
+        Chain, plan_manipulation = require("planning", "motion.manipulation.phases", "Chain", "plan_manipulation")
+        draw_tcp_poses = require("planning", "runtime.run.overlay", "draw_tcp_poses")
         chain = Chain(ctx)
         refusals = []
         attempts = [p for p in self.contact_candidates(ctx, chain)[:MAX_CONTACTS] for _ in range(PLAN_ATTEMPTS)]

@@ -9,14 +9,14 @@ from pathlib import Path
 
 from rich.console import Console
 
+from runtime.commands.progress import ProgressView
+from runtime.commands.serve import serve
 from runtime.config import Profile
 from runtime.devices import open_devices
-from runtime.messages import PlanSummary
-from runtime.progress import ProgressView
-from runtime.runner import Runtime
-from runtime.serve import serve
-from runtime.stages import PipelineStages
-from runtime.states import State
+from runtime.messaging.messages import PlanSummary
+from runtime.run.runner import Runtime
+from runtime.run.stages import PipelineStages
+from runtime.supervision.states import State
 
 EXIT_CODES = {State.DONE: 0, State.FAILED: 1, State.ESTOPPED: 3}
 

@@ -219,8 +219,8 @@ def check_arm(arm: Any) -> list[Check]:
 
 def check_estop_round_trip(profile: Profile) -> Check:
     """Publish an e-stop from a connecting node to a listening one on the profile's endpoint and time it."""
-    from runtime.bus import Bus
-    from runtime.messages import EStop
+    from runtime.messaging.bus import Bus
+    from runtime.messaging.messages import EStop
 
     cfg, robot_id = profile.runtime.zenoh, profile.runtime.robot_id
     received = threading.Event()

@@ -6,9 +6,9 @@ from __future__ import annotations
 import threading
 import time
 
-from runtime.bus import Bus
-from runtime.messages import Event, Status
-from runtime.states import StateMachine, Transition
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import Event, Status
+from runtime.supervision.states import StateMachine, Transition
 
 REPUBLISH_PERIOD_S = 0.5
 

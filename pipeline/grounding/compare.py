@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from runtime.context import Verification
+from runtime.run.context import Verification
 
 INTENDED_DEG = 10.0
 
@@ -49,7 +49,7 @@ class Symmetry:
 
 def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
     """The symmetry of the object whose seen points (N, 3) are given, or None (a box, a pan: every turn shows)."""
-    from runtime.stages import require  # pipeline modules are optional at import time, as for every stage
+    from runtime.run.stages import require  # pipeline modules are optional at import time, as for every stage
 
     revolution_axis, tolerance = require(
         "verification", "pipeline.contact.symmetry", "revolution_axis", "TOLERANCE_REL"

@@ -11,8 +11,8 @@ import threading
 import time
 from collections.abc import Callable
 
-from runtime.bus import Bus
-from runtime.messages import Confirm
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import Confirm
 
 
 class ConfirmGate:

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from runtime.context import RunContext, StageError
-from runtime.manipulation import LIFT_M, PLACE_CLEARANCE_M, Chain, ContactPoses
-from runtime.stages import require
+from motion.manipulation.phases import LIFT_M, PLACE_CLEARANCE_M, Chain, ContactPoses
+from runtime.run.context import RunContext, StageError
+from runtime.run.stages import require
 from safety.collision import CollisionWorld
 from safety.geometry import Primitive, transform_points
 

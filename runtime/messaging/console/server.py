@@ -17,9 +17,9 @@ from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 
-from runtime.bus import Bus
 from runtime.config import RuntimeConfig
-from runtime.messages import Command, Confirm, EStop, Event, Heartbeat, JointStateMsg, PlanSummary, Status
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import Command, Confirm, EStop, Event, Heartbeat, JointStateMsg, PlanSummary, Status
 
 log = logging.getLogger(__name__)
 
@@ -145,7 +145,7 @@ def make_handler(bridge: Bridge):
             path = self.path.split("?", 1)[0]
             if path in STATIC:
                 name, ctype = STATIC[path]
-                body = resources.files("runtime.console").joinpath("static", name).read_bytes()
+                body = resources.files("runtime.messaging.console").joinpath("static", name).read_bytes()
                 self._send(HTTPStatus.OK, body, f"{ctype}; charset=utf-8")
             elif path.startswith("/image/"):
                 _version, data = bridge.images.get(path.removeprefix("/image/"), (0, b""))

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.description import load_robot_spec
-from runtime.context import RunContext, StageError
-from runtime.manipulation import ContactPoses
-from runtime.stages import PipelineStages
+from motion.manipulation.phases import ContactPoses
+from runtime.run.context import RunContext, StageError
+from runtime.run.stages import PipelineStages
 from safety.geometry import Primitive
 
 PRE_GRASP_M = 0.12

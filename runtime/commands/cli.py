@@ -39,7 +39,7 @@ def capture(
     out: Annotated[Path, typer.Option(help="folder for rgb.png, depth.png, frame.npz")] = Path("out/capture"),
 ) -> None:
     """Capture one RGB-D frame (with T_base_camera from the calibration) and save it."""
-    from runtime.capture import save_frame
+    from runtime.commands.capture import save_frame
     from runtime.devices import open_devices
 
     profile = _load(config)
@@ -55,7 +55,7 @@ def demo(
     out: Annotated[Path, typer.Option(help="folder for the captures")] = Path("out/demo"),
 ) -> None:
     """Move the simulated arm through a few poses and save a capture at each (sim profiles only)."""
-    from runtime.demo import DemoRefused, run_demo
+    from runtime.commands.demo import DemoRefused, run_demo
 
     profile = _load(config)
     if profile.robot.kind != "sim":
@@ -128,7 +128,7 @@ def calibrate_hand_eye(
 
     from calibration.board import BoardError, load_board
     from calibration.mover import CalibrationRefused
-    from runtime.calibrate import run_hand_eye
+    from runtime.commands.calibrate import run_hand_eye
 
     modes = {"eye-to-hand": "eye_to_hand", "eye-in-hand": "eye_in_hand"}
     if mode not in modes:
@@ -160,7 +160,7 @@ def ground(
     """Spatial grounding alone: the object's motion x_goal = R x_init + t (camera frame) from PAIR.npz.
 
     Exit 0 grounded, 1 refused (RESULT.json says why), 2 unusable input."""
-    from runtime.ground_command import ground_command
+    from runtime.commands.ground_command import ground_command
 
     raise typer.Exit(ground_command(_load(config), scene_file, out))
 
@@ -182,7 +182,7 @@ def run(
     """One supervised run: capture, reason, ground, plan, gate, confirm, execute, verify.
 
     Exit 0 only when verification finds the goal reached; 1 failed, 3 e-stopped, 2 unusable arguments."""
-    from runtime.launch import run_command
+    from runtime.commands.launch import run_command
 
     if serve == (instruction is not None):
         _fail("give --instruction TEXT for one run, or --serve to take instructions from the console")
@@ -202,8 +202,8 @@ def estop(
     node: Annotated[str, typer.Option(help="this node's name in heartbeat/<node>")] = "estop-terminal",
 ) -> None:
     """Teleop e-stop: heartbeats at 20 Hz (the deadman); ANY KEY sends an e-stop, Ctrl-C sends one and quits."""
-    from runtime.bus import Bus
-    from runtime.estop import run_terminal_node
+    from runtime.messaging.bus import Bus
+    from runtime.supervision.estop import run_terminal_node
 
     profile = _load(config)
     cfg = profile.runtime
@@ -219,7 +219,7 @@ def reset(
     """Release a lasting e-stop latch (runtime.estop_latch_file) after someone checked the cell.
 
     Exit 0 released or nothing latched, 1 not confirmed, 2 no latch file configured."""
-    from runtime.estop_latch import EStopLatch
+    from runtime.supervision.estop_latch import EStopLatch
 
     path = _load(config).runtime.estop_latch_file
     if path is None:
@@ -244,7 +244,7 @@ def console(
     host: Annotated[str, typer.Option(help="HTTP address; keep the loopback default unless behind TLS")] = "127.0.0.1",
 ) -> None:
     """Operator console: a web page (http://HOST:PORT) with live status, images, plan, Run/Confirm/Abort/E-STOP."""
-    from runtime.console.server import serve_console
+    from runtime.messaging.console.server import serve_console
 
     profile = _load(config)
     serve_console(profile.runtime, host, port)
@@ -256,7 +256,7 @@ def doctor(config: ConfigOption = DEFAULT_CONFIG) -> None:
     failure."""
     from rich.console import Console
 
-    from runtime.doctor import run_doctor
+    from runtime.commands.doctor import run_doctor
 
     raise typer.Exit(run_doctor(_load(config), Console()))
 

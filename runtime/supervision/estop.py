@@ -17,8 +17,8 @@ import threading
 import time
 import tty
 
-from runtime.bus import Bus
-from runtime.messages import EStop, Heartbeat
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import EStop, Heartbeat
 
 
 class EStopNode:

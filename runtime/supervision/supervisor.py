@@ -18,10 +18,10 @@ import time
 
 from drivers.errors import DriverError
 from drivers.interfaces import Arm, Gripper
-from runtime.bus import Bus
 from runtime.config import RuntimeConfig
-from runtime.messages import Command, EStop, Event, Heartbeat, JointStateMsg
-from runtime.states import MOVING, TERMINAL, State, StateMachine, Transition
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import Command, EStop, Event, Heartbeat, JointStateMsg
+from runtime.supervision.states import MOVING, TERMINAL, State, StateMachine, Transition
 
 log = logging.getLogger(__name__)
 

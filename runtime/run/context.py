@@ -12,8 +12,8 @@ from typing import Any, Protocol
 
 from runtime.config import Profile
 from runtime.devices import Devices
-from runtime.messages import PlanSummary
-from runtime.record import RunRecord
+from runtime.messaging.messages import PlanSummary
+from runtime.run.record import RunRecord
 
 
 class StageError(RuntimeError):

@@ -14,8 +14,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from runtime.config import Profile
-from runtime.doctor_checks import (
+from runtime.commands.doctor_checks import (
     Check,
     check_arm,
     check_calibration,
@@ -23,6 +22,7 @@ from runtime.doctor_checks import (
     check_estop_round_trip,
     check_packages,
 )
+from runtime.config import Profile
 
 
 def run_checks(

@@ -19,7 +19,7 @@ from motion.executor import ExecutionRefused, Executor, ExecutorConfig
 from motion.limits import MotionLimits
 from motion.planner import Planner, PlanningError
 from motion.timing import TimingError, TrajectoryTimer
-from runtime.capture import save_frame
+from runtime.commands.capture import save_frame
 from runtime.config import Profile
 from runtime.devices import open_devices
 from safety.collision import CollisionWorld

@@ -16,8 +16,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from runtime.bus import Bus
-from runtime.states import Transition
+from runtime.messaging.bus import Bus
+from runtime.supervision.states import Transition
 
 log = logging.getLogger(__name__)
 
