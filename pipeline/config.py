@@ -13,6 +13,7 @@ from pydantic import Field
 from drivers.config import StrictModel
 from pipeline.contact.types import ContactConfig
 from pipeline.grounding.types import GroundingConfig
+from pipeline.perception.config import DepthAnythingConfig, Dinov2Config, GroundedSamConfig
 
 
 class ProviderConfig(StrictModel):
@@ -36,27 +37,6 @@ class OpenAIConfig(ProviderConfig):
     api_key_env: str = "OPENAI_API_KEY"
     image_model: str = "gpt-image-1"
     text_model: str = "gpt-4.1"
-
-
-class GroundedSamConfig(StrictModel):
-    """GroundingDINO proposes boxes for the phrase, SAM turns each box into a mask (transformers)."""
-
-    detector_model: str = Field(default="IDEA-Research/grounding-dino-tiny", description="hub id or local folder")
-    sam_model: str = Field(default="facebook/sam-vit-base", description="hub id or local folder")
-    box_threshold: float = Field(default=0.35, gt=0, lt=1)
-    text_threshold: float = Field(default=0.25, gt=0, lt=1)
-    device: str = "cpu"
-
-
-class DepthAnythingConfig(StrictModel):
-    model: str = Field(default="depth-anything/Depth-Anything-V2-Small-hf", description="relative (disparity) head")
-    device: str = "cpu"
-
-
-class Dinov2Config(StrictModel):
-    model: str = Field(default="facebook/dinov2-small", description="hub id or local folder")
-    device: str = "cpu"
-    short_side_px: int = Field(default=448, ge=14, description="image short side fed to the model")
 
 
 class ChecksConfig(StrictModel):
