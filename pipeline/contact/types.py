@@ -9,6 +9,7 @@ import numpy as np
 from pydantic import Field
 
 from drivers.config import StrictModel
+from safety.geometry import Primitive
 
 ContactMode = Literal["grasp", "push", "hinge"]
 
@@ -49,26 +50,34 @@ class ContactConfig(StrictModel):
     )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ContactPlan:
-    """One contact decision, TCP poses in the base frame (TCP z = approach direction, y = closing axis)."""
+    """One contact decision, from contact planning to execution: TCP poses in the base frame (TCP z = approach
+    direction, y = closing axis) and the joints they were solved with in the gate's scene, which the manipulation
+    plans from and checks in each phase's world instead of solving them again."""
 
     mode: ContactMode
-    T_pre: np.ndarray
-    T_contact: np.ndarray
+    T_pre: np.ndarray  # approach start
+    T_contact: np.ndarray  # grasp pose, or where the push starts
     T_goal: np.ndarray  # T_contact carried by the object motion (grasp, push); the arc's end (hinge)
+    # the object motion the plan realises (x_goal = T x_init, base frame): the one asked for, or for a body of
+    # revolution that goal turned about the body's own axis (the same to the eye)
+    T_motion: np.ndarray
     width_m: float  # finger gap to command at contact (grasp: below the object's width; push: closed)
+    open_width_m: float  # finger gap on the approach and at the pre-contact and contact poses (IK checked at it)
     object_width_m: float  # measured gap the object needs between the fingers (0 for pushes)
-    score: float
-    scores: dict[str, float]
-    q_pre: np.ndarray | None = None
-    q_contact: np.ndarray | None = None
-    q_goal: np.ndarray | None = None
+    q_pre: np.ndarray
+    q_contact: np.ndarray
+    q_goal: np.ndarray
     via: tuple[np.ndarray, ...] = ()  # TCP poses between contact and goal, in order (hinge: along the arc)
     q_via: tuple[np.ndarray, ...] = ()
-    # the object motion the plan realises: the one asked for, or for a body of revolution that goal turned about
-    # the body's own axis (the same to the eye); None: T_goal T_contact^-1
-    T_motion: np.ndarray | None = None
+    # grasp: the poses above T_goal the object is set down from (ContactConfig.place_lifts_m), lowest first
+    T_place: tuple[np.ndarray, ...] = ()
+    q_place: tuple[np.ndarray, ...] = ()
+    held: Primitive | None = None  # grasp: the object's geometry in the TCP frame once grasped
+    score: float = 0.0
+    scores: dict[str, float] = field(default_factory=dict)
+    source: str = "pipeline.contact"  # who decided (for the record), e.g. "pipeline.contact #1 score 0.82"
 
 
 @dataclass(frozen=True)
