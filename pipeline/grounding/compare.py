@@ -1,25 +1,26 @@
-"""Verification: capture again, measure how the target really moved, and compare it with the goal's motion.
+"""Verification's arithmetic: an achieved motion compared with the goal's, and the symmetries no image can show.
 
-Both motions are measured the same way (the grounding stage's registration, here between the initial capture
-and the new one, both metric) and compared where it matters: the object's centre, moved by each. The rotation
-difference is split, in the base frame, into tilt (how far the object's vertical axis is off) and twist (turn
-about the vertical), and each is judged only when the goal itself asks for that kind of rotation (at least
-INTENDED_DEG): the registration of a symmetric object (a cube, a cylinder) is free to pick any of its symmetric
-poses, so an unasked rotation is reported, never judged. A body of revolution about the vertical (a ball, an
-upright can) has no visible twist at all, so its twist is never judged and its position is compared on its axis
-(the centroid of the seen side swings with that invisible twist); it is recognised from the initial points, which
-then lie on one surface of revolution about some vertical axis (each height slice a circle about it).
+Both motions are measured the same way (grounding's registration, achieved.py) and compared where it matters:
+the object's centre, moved by each. The rotation difference is split, in the base frame, into tilt (how far the
+object's vertical axis is off) and twist (turn about the vertical), and each is judged only when the goal itself
+asks for that kind of rotation (at least INTENDED_DEG): the registration of a symmetric object (a cube, a
+cylinder) is free to pick any of its symmetric poses, so an unasked rotation is reported, never judged. A body of
+revolution (an upright can, a bottle) shows no turn about its own axis, so that turn is taken out first and its
+position is compared on the axis (the centroid of the seen side swings with the invisible turn); a ball shows no
+turn at all and is compared at its centre. Both are recognised from the initial points.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 from scipy.spatial.transform import Rotation
 
-from runtime.run.context import Verification
+from pipeline.contact.symmetry import TOLERANCE_REL, revolution_axis
 
 INTENDED_DEG = 10.0
 
@@ -49,11 +50,6 @@ class Symmetry:
 
 def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
     """The symmetry of the object whose seen points (N, 3) are given, or None (a box, a pan: every turn shows)."""
-    from runtime.run.stages import require  # pipeline modules are optional at import time, as for every stage
-
-    revolution_axis, tolerance = require(
-        "verification", "pipeline.contact.symmetry", "revolution_axis", "TOLERANCE_REL"
-    )
     axis = revolution_axis(points_camera)
     if axis is None:
         return None
@@ -61,7 +57,7 @@ def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
     centre = np.linalg.lstsq(np.column_stack([2 * P, np.ones(len(P))]), (P**2).sum(axis=1), rcond=None)[0][:3]
     radius = np.linalg.norm(P - centre, axis=1)
     off = float(np.median(np.abs(radius - np.median(radius))))
-    if off <= tolerance * float(np.linalg.norm(np.ptp(P, axis=0))):
+    if off <= TOLERANCE_REL * float(np.linalg.norm(np.ptp(P, axis=0))):
         return Symmetry(centre, None)
     return Symmetry(axis.point, axis.direction)
 
@@ -81,7 +77,31 @@ def object_centre(points_camera: np.ndarray) -> np.ndarray:
     return np.median(points_camera, axis=0)
 
 
+class Comparison(BaseModel):
+    """The verdict on an achieved motion, with every number it was judged by (errors, the goal's own turns, which
+    turns were judged, the tolerances)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    ok: bool
+    reason: str
+    position_error_m: float
+    rotation_error_deg: float
+    goal_translation_m: float
+    achieved_translation_m: float
+    goal_twist_deg: float
+    goal_tilt_deg: float
+    twist_error_deg: float
+    tilt_error_deg: float
+    twist_judged: bool
+    tilt_judged: bool
+    symmetry: Literal["none", "ball", "revolution"]
+    position_tol_m: float
+    rotation_tol_deg: float
+
+
 def compare(
+    *,
     goal_R: np.ndarray,
     goal_t: np.ndarray,
     achieved_R: np.ndarray,
@@ -91,7 +111,7 @@ def compare(
     position_tol_m: float,
     rotation_tol_deg: float,
     symmetry: Symmetry | None = None,
-) -> Verification:
+) -> Comparison:
     """Verdict from the goal and achieved motions (x' = R x + t, camera frame) of an object centred at centre;
     with a symmetry, positions are compared at its centre and turns it hides are not judged."""
     if symmetry is not None:
@@ -107,19 +127,6 @@ def compare(
     twist_error, tilt_error = twist_tilt_deg(to_base(R_error))
     turns_seen = symmetry is None or symmetry.axis is not None  # no turn of a ball shows
     judge_twist, judge_tilt = turns_seen and goal_twist >= INTENDED_DEG, turns_seen and goal_tilt >= INTENDED_DEG
-    details = {
-        "goal_translation_m": float(np.linalg.norm(p_goal - centre_camera)),
-        "achieved_translation_m": float(np.linalg.norm(p_achieved - centre_camera)),
-        "goal_twist_deg": goal_twist,
-        "goal_tilt_deg": goal_tilt,
-        "twist_error_deg": twist_error,
-        "tilt_error_deg": tilt_error,
-        "twist_judged": judge_twist,
-        "symmetry": "none" if symmetry is None else ("ball" if symmetry.axis is None else "revolution"),
-        "tilt_judged": judge_tilt,
-        "position_tol_m": position_tol_m,
-        "rotation_tol_deg": rotation_tol_deg,
-    }
     problems = []
     if position_error > position_tol_m:
         problems.append(
@@ -129,10 +136,25 @@ def compare(
         problems.append(f"object tilted {tilt_error:.1f} deg off the goal (tolerance {rotation_tol_deg:.0f})")
     if judge_twist and twist_error > rotation_tol_deg:
         problems.append(f"object turned {twist_error:.1f} deg off the goal (tolerance {rotation_tol_deg:.0f})")
-    rotation_error = rotation_deg(goal_R.T @ achieved_R)
     reason = "; ".join(problems) or (
         f"goal reached: centre within {position_error * 1000:.0f} mm"
         + (f", tilt within {tilt_error:.1f} deg" if judge_tilt else "")
         + (f", turn within {twist_error:.1f} deg" if judge_twist else "")
     )
-    return Verification(not problems, reason, position_error, rotation_error, details)
+    return Comparison(
+        ok=not problems,
+        reason=reason,
+        position_error_m=position_error,
+        rotation_error_deg=rotation_deg(goal_R.T @ achieved_R),
+        goal_translation_m=float(np.linalg.norm(p_goal - centre_camera)),
+        achieved_translation_m=float(np.linalg.norm(p_achieved - centre_camera)),
+        goal_twist_deg=goal_twist,
+        goal_tilt_deg=goal_tilt,
+        twist_error_deg=twist_error,
+        tilt_error_deg=tilt_error,
+        twist_judged=judge_twist,
+        tilt_judged=judge_tilt,
+        symmetry="none" if symmetry is None else ("ball" if symmetry.axis is None else "revolution"),
+        position_tol_m=position_tol_m,
+        rotation_tol_deg=rotation_tol_deg,
+    )

@@ -1,19 +1,12 @@
-"""Run records, verification arithmetic and the 'not available' refusal of a missing stage module."""
+"""Verification's arithmetic: positions and turns judged against the goal, symmetries taken out first."""
 
 from __future__ import annotations
-
-import json
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
 from pipeline.grounding.compare import Symmetry, compare, object_symmetry
-from runtime.config import StateBudgets
-from runtime.run.context import StageUnavailable
-from runtime.run.record import RunRecord
-from runtime.run.stages import require
-from runtime.supervision.states import State, StateMachine
 
 
 def yaw(deg: float) -> np.ndarray:
@@ -23,15 +16,30 @@ def yaw(deg: float) -> np.ndarray:
 CAM = np.eye(3)  # camera frame == base frame in these cases: the base z axis is the camera's
 
 
+def judge(goal_R, goal_t, achieved_R, achieved_t, centre, R_base_camera=CAM, symmetry=None):
+    """compare() with a 3 cm / 15 deg tolerance."""
+    return compare(
+        goal_R=goal_R,
+        goal_t=goal_t,
+        achieved_R=achieved_R,
+        achieved_t=achieved_t,
+        centre_camera=centre,
+        R_base_camera=R_base_camera,
+        position_tol_m=0.03,
+        rotation_tol_deg=15.0,
+        symmetry=symmetry,
+    )
+
+
 def test_reached_goal_passes():
     c = np.array([0.1, 0.0, 0.8])
-    v = compare(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.21, 0, 0]), c, CAM, 0.03, 15.0)
+    v = judge(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.21, 0, 0]), c)
     assert v.ok and v.position_error_m == pytest.approx(0.01)
 
 
 def test_position_off_by_more_than_the_tolerance_fails_with_the_numbers():
     c = np.zeros(3)
-    v = compare(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.15, 0, 0]), c, CAM, 0.03, 15.0)
+    v = judge(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.15, 0, 0]), c)
     assert not v.ok and "50 mm from the goal (tolerance 30)" in v.reason
 
 
@@ -41,20 +49,22 @@ def about_centre(R: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 def test_turn_is_judged_only_when_the_goal_turns():
     c = np.array([0.0, 0.0, 0.8])
-    free = compare(np.eye(3), np.zeros(3), yaw(40), about_centre(yaw(40), c), c, CAM, 0.03, 15.0)
-    assert free.ok and free.details["twist_error_deg"] == pytest.approx(40) and not free.details["twist_judged"]
-    wrong = compare(yaw(90), about_centre(yaw(90), c), yaw(60), about_centre(yaw(60), c), c, CAM, 0.03, 15.0)
+    free = judge(np.eye(3), np.zeros(3), yaw(40), about_centre(yaw(40), c), c)
+    assert free.ok and free.twist_error_deg == pytest.approx(40) and not free.twist_judged
+    wrong = judge(yaw(90), about_centre(yaw(90), c), yaw(60), about_centre(yaw(60), c), c)
     assert not wrong.ok and "turned 30.0 deg off" in wrong.reason
 
 
 def test_turns_a_symmetry_hides_are_not_judged():
     c = np.array([0.0, 0.0, 0.8])
-    args = (yaw(90), about_centre(yaw(90), c), yaw(20), about_centre(yaw(20), c), c, CAM, 0.03, 15.0)
-    assert not compare(*args).ok
-    can = compare(*args, Symmetry(c, np.array([0.0, 0.0, 1.0])))  # upright: its turn about the vertical is unseen
-    assert can.ok and can.details["twist_error_deg"] == pytest.approx(0.0, abs=1e-6)
-    ball = compare(*args, Symmetry(c, None))
-    assert ball.ok and not ball.details["twist_judged"] and ball.details["symmetry"] == "ball"
+    args = (yaw(90), about_centre(yaw(90), c), yaw(20), about_centre(yaw(20), c), c)
+    assert not judge(*args).ok
+    can = judge(
+        *args, symmetry=Symmetry(c, np.array([0.0, 0.0, 1.0]))
+    )  # upright: its turn about the vertical is unseen
+    assert can.ok and can.twist_error_deg == pytest.approx(0.0, abs=1e-6)
+    ball = judge(*args, symmetry=Symmetry(c, None))
+    assert ball.ok and not ball.twist_judged and ball.symmetry == "ball"
 
 
 def test_a_lying_bottle_stood_up_is_judged_on_its_tilt_not_its_spin():
@@ -63,11 +73,11 @@ def test_a_lying_bottle_stood_up_is_judged_on_its_tilt_not_its_spin():
     stand = Rotation.from_euler("y", 90, degrees=True).as_matrix()
     spun = stand @ Rotation.from_rotvec(np.radians(40) * axis).as_matrix()  # the same, turned about its own axis
     bottle = Symmetry(c, axis)
-    ok = compare(stand, about_centre(stand, c), spun, about_centre(spun, c), c, CAM, 0.03, 15.0, bottle)
-    assert ok.ok and ok.details["tilt_error_deg"] == pytest.approx(0.0, abs=1e-6)
-    assert not compare(stand, about_centre(stand, c), spun, about_centre(spun, c), c, CAM, 0.03, 15.0).ok
+    ok = judge(stand, about_centre(stand, c), spun, about_centre(spun, c), c, symmetry=bottle)
+    assert ok.ok and ok.tilt_error_deg == pytest.approx(0.0, abs=1e-6)
+    assert not judge(stand, about_centre(stand, c), spun, about_centre(spun, c), c).ok
     half = Rotation.from_euler("y", 60, degrees=True).as_matrix()
-    short = compare(stand, about_centre(stand, c), half, about_centre(half, c), c, CAM, 0.03, 15.0, bottle)
+    short = judge(stand, about_centre(stand, c), half, about_centre(half, c), c, symmetry=bottle)
     assert not short.ok and "tilted 30.0 deg" in short.reason
 
 
@@ -111,35 +121,11 @@ def test_tilt_is_judged_when_the_goal_tilts_in_the_base_frame():
     c = np.array([0.0, 0.0, 0.8])
     tilt = Rotation.from_euler("x", 90, degrees=True).as_matrix()
     half = Rotation.from_euler("x", 60, degrees=True).as_matrix()
-    v = compare(tilt, about_centre(tilt, c), half, about_centre(half, c), c, CAM, 0.03, 15.0)
+    v = judge(tilt, about_centre(tilt, c), half, about_centre(half, c), c)
     assert not v.ok and "tilted 30.0 deg" in v.reason
-    unasked = compare(np.eye(3), np.zeros(3), tilt, about_centre(tilt, c), c, CAM, 0.03, 15.0)
-    assert unasked.ok and unasked.details["tilt_error_deg"] == pytest.approx(90)  # reported, not judged
+    unasked = judge(np.eye(3), np.zeros(3), tilt, about_centre(tilt, c), c)
+    assert unasked.ok and unasked.tilt_error_deg == pytest.approx(90)  # reported, not judged
     # the same camera-frame rotation is a pure turn about the base vertical when camera x is the base vertical
     R_base_camera = Rotation.from_euler("y", 90, degrees=True).as_matrix()
-    v = compare(tilt, about_centre(tilt, c), half, about_centre(half, c), c, R_base_camera, 0.03, 15.0)
-    assert not v.ok and "turned 30.0 deg" in v.reason and v.details["tilt_error_deg"] == pytest.approx(0, abs=1e-6)
-
-
-def test_record_writes_summary_report_and_stage_seconds(tmp_path):
-    rec = RunRecord(tmp_path / "run", "r1")
-    sm = StateMachine(StateBudgets())
-    sm.add_listener(rec.on_transition)
-    sm.advance(State.CAPTURING)
-    rec.image("capture", np.full((20, 30, 3), 200, np.uint8))
-    rec.image("mask", np.eye(20, 30, dtype=bool))
-    rec.note(instruction="put <b>it</b> there")
-    sm.fail("camera timeout")
-    rec.finish(sm.state.value, sm.reason)
-    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
-    assert summary["status"] == "FAILED" and summary["reason"] == "camera timeout"
-    assert set(summary["stage_seconds"]) == {"capturing"} and summary["images"] == ["capture.png", "mask.png"]
-    html = (tmp_path / "run" / "report.html").read_text()
-    assert "put &lt;b&gt;it&lt;/b&gt; there" in html and 'src="capture.png"' in html
-
-
-def test_missing_module_is_reported_not_faked():
-    with pytest.raises(StageUnavailable, match=r"pipeline\.nothing_here is not available .* the contact stage"):
-        require("contact", "pipeline.nothing_here", "plan_contact")
-    with pytest.raises(StageUnavailable, match="has no no_such_function"):
-        require("verification", "pipeline.grounding.compare", "compare", "no_such_function")
+    v = judge(tilt, about_centre(tilt, c), half, about_centre(half, c), c, R_base_camera)
+    assert not v.ok and "turned 30.0 deg" in v.reason and v.tilt_error_deg == pytest.approx(0, abs=1e-6)
