@@ -113,16 +113,18 @@ def runs(count: int, out_dir: Path, contact: str) -> dict:
     from runtime.devices import open_devices
     from runtime.run.runner import Runtime
     from runtime.run.stages import PipelineStages
+    from runtime.sim_truth.listener import SimTruth
 
     scenes_dir = REPO / "configs" / "scenes"
     tasks = [t for t in TASKS if (scenes_dir / f"{t[0]}.yaml").exists()]
     skipped = sorted({t[0] for t in TASKS} - {t[0] for t in tasks})
+    listeners = [SimTruth()]  # the simulator's truth beside each run's own verdict
     if contact == "oracle":
         from runtime.sim_truth.oracle import GroundTruthGraspStages
 
-        stages = GroundTruthGraspStages()
+        stages = GroundTruthGraspStages(listeners=listeners)
     else:
-        stages = PipelineStages()  # backends built once, like a long-running runtime
+        stages = PipelineStages(listeners=listeners)  # backends built once, like a long-running runtime
     results = []
     for i in range(count):
         scene, instruction = tasks[i % len(tasks)]
@@ -135,6 +137,7 @@ def runs(count: int, out_dir: Path, contact: str) -> dict:
         with open_devices(profile) as devices, Runtime(profile, devices, stages, confirm="yes") as rt:
             result = rt.run(instruction, out_dir / f"run_{i:03d}")
         wall = time.perf_counter() - t0
+        truth = result.summary.sim_truth
         results.append(
             {
                 "scene": scene,
@@ -143,12 +146,10 @@ def runs(count: int, out_dir: Path, contact: str) -> dict:
                 "status": result.status.value,
                 "reason": result.reason,
                 "wall_s": wall,
-                "stage_seconds": result.summary.get("stage_seconds", {}),
+                "stage_seconds": result.summary.stage_seconds,
                 # where the target really ended vs the goal motion (simulator truth; verification cannot see it)
-                "true_goal_error_m": result.summary.get("sim_truth", {}).get("target_goal_error_m"),
-                "true_hinge_deg": max(
-                    (v for k, v in result.summary.get("sim_truth", {}).items() if k.endswith("[deg]")), default=None
-                ),
+                "true_goal_error_m": None if truth is None else truth.target_goal_error_m,
+                "true_hinge_deg": None if truth is None else max(truth.hinge_deg.values(), default=None),
             }
         )
         Console(stderr=True).print(

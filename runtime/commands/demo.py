@@ -71,7 +71,7 @@ def run_demo(profile: Profile, out_dir: Path) -> list[Path]:
                     approved = approve(timer.time([path.waypoints]), world, q_current=q_from)
                     report = executor.execute(approved)
                 except (PlanningError, TimingError, GateRefused, ExecutionRefused) as e:
-                    raise DemoRefused(f"move to {name}: {e}") from None
+                    raise DemoRefused(f"move to {name}: {e}") from e
                 if report.status != "completed":
                     raise DemoRefused(f"move to {name}: {report.status}: {report.reason}")
                 time.sleep(0.3)  # settle before the picture

@@ -1,7 +1,7 @@
 """`goalvla doctor`: the bring-up checklist. Each item passes or fails with a hint; a failed prerequisite turns
 the items that need it into failures too (nothing is assumed). Exit code 1 if any item fails.
 
-Items (runtime/doctor_checks.py): packages, camera streaming and rate, intrinsics, arm reachable, firmware,
+Items (doctor_checks.py): packages, camera streaming and rate, intrinsics, arm reachable, firmware,
 controller errors/warnings, mode/state, controller safety settings, e-stop round trip over Zenoh, calibration
 present and recent.
 """

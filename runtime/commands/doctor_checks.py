@@ -36,7 +36,7 @@ PACKAGES = {  # distribution -> import name
     "pyorbbecsdk2": "pyorbbecsdk",
 }
 EXTRA_PINS = {"pyorbbecsdk2": "2.1.2"}  # installed by setup.sh with --no-deps, so not in pyproject.toml
-PYPROJECT = Path(__file__).resolve().parents[1] / "pyproject.toml"
+PYPROJECT = Path(__file__).resolve().parents[2] / "pyproject.toml"
 HARDWARE_ONLY = {"xarm-python-sdk": "xarm7", "pyorbbecsdk2": "femto_bolt"}
 
 

@@ -9,13 +9,15 @@ from pathlib import Path
 
 from rich.console import Console
 
+from pipeline.reasoning.factory import preflight
 from runtime.commands.progress import ProgressView
 from runtime.commands.serve import serve
 from runtime.config import Profile
-from runtime.devices import open_devices
+from runtime.devices import missing_device_packages, open_devices
 from runtime.messaging.messages import PlanSummary
 from runtime.run.runner import Runtime
 from runtime.run.stages import PipelineStages
+from runtime.sim_truth.listener import SimTruth
 from runtime.supervision.states import State
 
 EXIT_CODES = {State.DONE: 0, State.FAILED: 1, State.ESTOPPED: 3}
@@ -38,28 +40,28 @@ def run_command(profile: Profile, instruction: str | None, yes: bool, record: Pa
         answer = console.input(f"\n[bold]{describe_plan(plan)}[/bold]\nExecute this plan? [y/N] ")
         return answer.strip().lower() in ("y", "yes")
 
-    from pipeline.reasoning.factory import preflight
-
-    problems = preflight(profile.pipeline)
-    if problems:  # before any device moves: a missing key must not surface in the middle of a run
+    problems = preflight(profile.pipeline) + missing_device_packages(profile)
+    if problems:  # before any device moves: a missing key or package must not surface in the middle of a run
         console.print("[red]cannot start:[/red]\n  " + "\n  ".join(problems))
         return 2
-    with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm, prompt) as rt:
-        cfg = profile.runtime
-        console.print(
-            f"runtime node on {cfg.zenoh.endpoint}, keys goalvla/{cfg.robot_id}/..., e-stop: {cfg.estop_node}"
-        )
-        if serve:
-            return _serve(rt, console)
-        with ProgressView(console) as view:
-            rt.machine.add_listener(view.on_transition)
-            if cfg.estop_node == "external":
-                view.note("execution needs a running `goalvla estop` node (deadman)")
-            if confirm == "console":
-                view.note("confirm the plan in `goalvla console`")
-            result = rt.run(instruction or "", record)
-        console.print(f"\nrun record: {result.run_dir / 'summary.json'}  report: {result.run_dir / 'report.html'}")
-        return EXIT_CODES.get(result.status, 1)
+    with open_devices(profile) as devices:
+        stages = PipelineStages(listeners=[SimTruth()] if devices.world is not None else [])  # sim: its truth too
+        with Runtime(profile, devices, stages, confirm, prompt) as rt:
+            cfg = profile.runtime
+            console.print(
+                f"runtime node on {cfg.zenoh.endpoint}, keys goalvla/{cfg.robot_id}/..., e-stop: {cfg.estop_node}"
+            )
+            if serve:
+                return _serve(rt, console)
+            with ProgressView(console) as view:
+                rt.machine.add_listener(view.on_transition)
+                if cfg.estop_node == "external":
+                    view.note("execution needs a running `goalvla estop` node (deadman)")
+                if confirm == "console":
+                    view.note("confirm the plan in `goalvla console`")
+                result = rt.run(instruction or "", record)
+            console.print(f"\nrun record: {result.run_dir / 'summary.json'}  report: {result.run_dir / 'report.html'}")
+            return EXIT_CODES.get(result.status, 1)
 
 
 def _serve(rt: Runtime, console: Console) -> int:

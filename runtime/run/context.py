@@ -1,36 +1,31 @@
 """What the run loop hands to its stages, and how a stage says no.
 
-A stage reads what earlier stages left in the `RunContext`, adds its own result, records what it decided and
-raises `StageError` (a refusal, with a reason a person can read) when the run must not go on.
+A stage reads what earlier stages left in the `RunContext`, adds its own result, records what it decided in its
+section of the run's summary and raises `StageError` (a refusal, with a reason a person can read) when the run
+must not go on.
 """
 
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass, field
-from typing import Any, Protocol
+from dataclasses import dataclass
+from typing import Protocol
 
+from drivers.types import RGBDFrame
+from motion.executor import Executor
+from motion.manipulation.phases import ManipulationPlan
+from pipeline.contact.types import ContactPlan
+from pipeline.grounding.types import ObjectMotion
+from pipeline.reasoning.types import GoalState
 from runtime.config import Profile
 from runtime.devices import Devices
 from runtime.messaging.messages import PlanSummary
 from runtime.run.record import RunRecord
+from runtime.run.summary import Verification
 
 
 class StageError(RuntimeError):
     """The stage refuses to continue; the message is the run's FAILED reason."""
-
-
-class StageUnavailable(StageError):
-    """The module a stage needs is not part of this build (or failed to import); never a silent success."""
-
-
-@dataclass
-class Verification:
-    ok: bool
-    reason: str
-    position_error_m: float | None = None
-    rotation_error_deg: float | None = None
-    details: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -40,14 +35,15 @@ class RunContext:
     instruction: str
     record: RunRecord
     cancel: threading.Event
-    frame0: Any = None  # RGBDFrame before the run
-    goal: Any = None  # GoalState from reasoning
-    motion: Any = None  # ObjectMotion from grounding
-    contact: Any = None  # ContactPlan
-    trajectory: Any = None  # the gate-approved trajectory
-    plan: PlanSummary | None = None
-    frame1: Any = None  # RGBDFrame after execution
-    extras: dict = field(default_factory=dict)  # stage-private hand-over (e.g. the executor while it runs)
+    frame0: RGBDFrame | None = None  # the capture before the run
+    goal: GoalState | None = None  # reasoning
+    motion: ObjectMotion | None = None  # grounding (ok)
+    contact: ContactPlan | None = None  # the contact the plan uses
+    manipulation: ManipulationPlan | None = None  # its gate-approved phases
+    plan: PlanSummary | None = None  # what the operator confirms
+    frame1: RGBDFrame | None = None  # the capture after execution
+    executor: Executor | None = None  # streaming the phases, while execution runs
+    executing: bool = False  # the run reached EXECUTING: a run that ends badly from here must stop the motion
 
 
 class Stages(Protocol):

@@ -1,7 +1,7 @@
 """The run record: one folder per run with summary.json, the images and report.html, mirrored on the bus.
 
-Everything a stage decided goes through here, so a failed run can be understood from its folder alone and the
-console sees the same images the folder keeps.
+Everything a stage decided goes into its section of the RunSummary (runtime.run.summary), so a failed run can be
+understood from its folder alone, and every image through here, so the console sees the images the folder keeps.
 """
 
 from __future__ import annotations
@@ -11,27 +11,17 @@ import json
 import logging
 import time
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
 
 from runtime.messaging.bus import Bus
+from runtime.run.summary import RunSummary, TransitionRecord
 from runtime.supervision.states import Transition
 
 log = logging.getLogger(__name__)
 
 PUBLISHED_JPEG_QUALITY = 85
-
-
-def _json_default(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
 def to_bgr(image: np.ndarray) -> np.ndarray:
@@ -56,23 +46,17 @@ class RunRecord:
         self.dir.mkdir(parents=True, exist_ok=True)
         self.run_id = run_id
         self.bus = bus
-        self.summary: dict[str, Any] = {"run_id": run_id, "status": "RUNNING", "reason": "", "stage_seconds": {}}
-        self.transitions: list[dict] = []
+        self.summary = RunSummary(run_id=run_id)
         self.images: list[str] = []
         self._t0 = time.monotonic()
 
     def on_transition(self, t: Transition) -> None:
         if t.previous.value not in ("IDLE", "DONE", "FAILED", "ESTOPPED"):
             key = t.previous.value.lower()
-            self.summary["stage_seconds"][key] = round(
-                self.summary["stage_seconds"].get(key, 0.0) + t.seconds_in_previous, 4
-            )
-        self.transitions.append(
-            {"from": t.previous.value, "to": t.state.value, "reason": t.reason, "stamp_s": t.stamp_s}
-        )
-
-    def note(self, **fields: Any) -> None:
-        self.summary.update(fields)
+            seconds = self.summary.stage_seconds
+            seconds[key] = round(seconds.get(key, 0.0) + t.seconds_in_previous, 4)
+        record = TransitionRecord(previous=t.previous.value, state=t.state.value, reason=t.reason, stamp_s=t.stamp_s)
+        self.summary.transitions = [*self.summary.transitions, record]
 
     def image(self, name: str, image: np.ndarray) -> Path:
         """Write <name>.png (RGB image or bool mask) and publish it as JPEG on images/<name>."""
@@ -87,51 +71,46 @@ class RunRecord:
         return path
 
     def finish(self, status: str, reason: str) -> Path:
-        self.summary.update(
-            status=status,
-            reason=reason,
-            wall_s=round(time.monotonic() - self._t0, 3),
-            transitions=self.transitions,
-            images=[f"{n}.png" for n in self.images],
-        )
+        summary = self.summary
+        summary.status, summary.reason = status, reason
+        summary.wall_s = round(time.monotonic() - self._t0, 3)
+        summary.images = [f"{n}.png" for n in self.images]
         path = self.dir / "summary.json"
-        path.write_text(json.dumps(self.summary, indent=2, default=_json_default))
-        (self.dir / "report.html").write_text(render_report(self.summary))
+        path.write_text(summary.model_dump_json(indent=2))
+        (self.dir / "report.html").write_text(render_report(summary))
         return path
 
 
 def _rows(mapping: dict) -> str:
     return "".join(
-        f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(json.dumps(v, default=_json_default))}</td></tr>"
-        for k, v in mapping.items()
+        f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(json.dumps(v))}</td></tr>" for k, v in mapping.items()
     )
 
 
-def render_report(summary: dict) -> str:
+def render_report(summary: RunSummary) -> str:
     """A self-contained page (images referenced next to it) that a person can open from the run folder."""
-    status = summary.get("status", "?")
+    status = summary.status
     colour = {"DONE": "#1a7f37", "FAILED": "#b35900", "ESTOPPED": "#c00"}.get(status, "#555")
-    skip = {"transitions", "images", "stage_seconds"}
-    details = {k: v for k, v in summary.items() if k not in skip}
+    details = summary.model_dump(mode="json", exclude={"transitions", "images", "stage_seconds"}, exclude_none=True)
     transitions = "".join(
-        f"<tr><td>{html.escape(t['from'])}</td><td>{html.escape(t['to'])}</td><td>{html.escape(t['reason'])}</td></tr>"
-        for t in summary.get("transitions", [])
+        f"<tr><td>{html.escape(t.previous)}</td><td>{html.escape(t.state)}</td><td>{html.escape(t.reason)}</td></tr>"
+        for t in summary.transitions
     )
     figures = "".join(
         f'<figure><img src="{html.escape(name)}" alt="{html.escape(name)}"><figcaption>{html.escape(name)}'
         "</figcaption></figure>"
-        for name in summary.get("images", [])
+        for name in summary.images
     )
     return f"""<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>goalvla run {html.escape(str(summary.get("run_id", "")))}</title>
+<html lang="en"><head><meta charset="utf-8"><title>goalvla run {html.escape(summary.run_id)}</title>
 <style>body{{font-family:sans-serif;margin:2em;max-width:1200px}} table{{border-collapse:collapse;margin:1em 0}}
 td,th{{border:1px solid #ccc;padding:4px 8px;text-align:left;vertical-align:top;font-size:13px}}
 figure{{display:inline-block;margin:4px}} img{{max-width:380px}} .status{{color:{colour};font-size:1.6em}}</style>
 </head><body>
-<h1>Run {html.escape(str(summary.get("run_id", "")))}</h1>
-<p class="status" id="status">{html.escape(status)}</p><p id="reason">{html.escape(str(summary.get("reason", "")))}</p>
-<h2>Instruction</h2><p>{html.escape(str(summary.get("instruction", "")))}</p>
-<h2>Seconds per stage</h2><table>{_rows(summary.get("stage_seconds", {}))}</table>
+<h1>Run {html.escape(summary.run_id)}</h1>
+<p class="status" id="status">{html.escape(status)}</p><p id="reason">{html.escape(summary.reason)}</p>
+<h2>Instruction</h2><p>{html.escape(summary.instruction)}</p>
+<h2>Seconds per stage</h2><table>{_rows(summary.stage_seconds)}</table>
 <h2>Transitions</h2><table><tr><th>from</th><th>to</th><th>reason</th></tr>{transitions}</table>
 <h2>Images</h2>{figures}
 <h2>Details</h2><table>{_rows(details)}</table>

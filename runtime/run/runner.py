@@ -27,6 +27,7 @@ from runtime.messaging.bus import Bus
 from runtime.messaging.messages import PlanSummary
 from runtime.run.context import RunContext, StageError, Stages
 from runtime.run.record import RunRecord, publish_image, to_bgr
+from runtime.run.summary import ConfirmationRecord, RunSummary
 from runtime.supervision.confirm import ConfirmGate
 from runtime.supervision.estop import EStopNode
 from runtime.supervision.estop_latch import EStopLatch
@@ -57,7 +58,7 @@ class RunResult:
     status: State
     reason: str
     run_dir: Path
-    summary: dict
+    summary: RunSummary
 
     @property
     def ok(self) -> bool:
@@ -87,7 +88,7 @@ class Runtime:
         self.machine = StateMachine(cfg.budgets_s)
         self.status = StatusPublisher(self.bus, self.machine).start()
         self.supervisor = Supervisor(self.machine, self.bus, devices.arm, devices.gripper, cfg).start()
-        self.gate = ConfirmGate(self.bus, lambda text: self.status.event(text, "warning"))
+        self.confirm_gate = ConfirmGate(self.bus, lambda text: self.status.event(text, "warning"))
         self.estop_node = (
             EStopNode(self.bus, "in_process", cfg.heartbeat_rate_hz).start()
             if (cfg.estop_node == "in_process")
@@ -146,9 +147,11 @@ class Runtime:
         run_id = datetime.now(UTC).strftime("%Y%m%d-%H%M%S-") + uuid.uuid4().hex[:6]
         run_dir = run_dir or self.profile.runtime.runs_dir / run_id
         record = RunRecord(run_dir, run_id, self.bus)
-        record.note(instruction=instruction, profile=self.profile.name, robot_id=self.profile.runtime.robot_id)
+        summary = record.summary
+        summary.instruction, summary.profile = instruction, self.profile.name
+        summary.robot_id = self.profile.runtime.robot_id
         if self.profile.robot.kind == "sim":
-            record.note(scene=self.profile.sim.scene, seed=self.profile.sim.seed)
+            summary.scene, summary.seed = self.profile.sim.scene, self.profile.sim.seed
         self.status.run_id, self.status.plan_id, self.status.instruction = run_id, "", instruction
         ctx = RunContext(self.profile, self.devices, instruction, record, self.supervisor.cancel)
         self.machine.add_listener(record.on_transition)
@@ -178,15 +181,15 @@ class Runtime:
         if plan is None:
             raise self._fail("planning produced no plan summary")
         self.status.plan_id = plan.plan_id
-        ctx.record.note(plan=plan.model_dump())
-        self.gate.expect(plan.plan_id)
+        ctx.record.summary.plan = plan
+        self.confirm_gate.expect(plan.plan_id)
         self.machine.advance(State.AWAITING_CONFIRM, f"plan {plan.plan_id}")
         self.bus.publish(self.bus.keys.plan, plan)
         self._ask_confirmation(plan)
-        decision = self.gate.wait(ctx.cancel)
+        decision = self.confirm_gate.wait(ctx.cancel)
         if decision is None:
             raise Cancelled
-        ctx.record.note(confirmed_by=decision.source, approved=decision.approve)
+        ctx.record.summary.confirmation = ConfirmationRecord(source=decision.source, approved=decision.approve)
         if not decision.approve:
             raise self._fail(f"plan {plan.plan_id} declined by {decision.source}")
         if not self.supervisor.deadman_ok():
@@ -198,7 +201,7 @@ class Runtime:
         self._stage(State.EXECUTING, "execute", ctx)
         self.machine.advance(State.VERIFYING)
         verdict = self._call(self.stages.verify, ctx, "verify")
-        ctx.record.note(verification=verdict.__dict__)
+        ctx.record.summary.verification = verdict
         if verdict.ok:
             self.machine.advance(State.DONE, verdict.reason)
         else:
@@ -206,13 +209,13 @@ class Runtime:
 
     def _ask_confirmation(self, plan: PlanSummary) -> None:
         if self.confirm_mode == "yes":
-            self.gate.send(plan.plan_id, "cli --yes")
+            self.confirm_gate.send(plan.plan_id, "cli --yes")
         elif self.confirm_mode == "prompt" and self.prompt is not None:
 
             def ask() -> None:
                 approve = self.prompt(plan)
                 if self.machine.state == State.AWAITING_CONFIRM:
-                    self.gate.send(plan.plan_id, "terminal", approve)
+                    self.confirm_gate.send(plan.plan_id, "terminal", approve)
 
             threading.Thread(target=ask, name="confirm-prompt", daemon=True).start()
 
@@ -223,7 +226,7 @@ class Runtime:
     def _stage(self, state: State, name: str, ctx: RunContext) -> None:
         self.machine.advance(state)
         if state == State.EXECUTING:
-            ctx.extras["executing"] = True  # from here on, a run that ends badly must stop the motion
+            ctx.executing = True  # from here on, a run that ends badly must stop the motion
         result = self._call(getattr(self.stages, name), ctx, name)
         if state == State.PLANNING:
             ctx.plan = result
@@ -243,20 +246,20 @@ class Runtime:
         try:
             return future.result()
         except StageError as e:
-            raise self._fail(f"{name}: {e}") from None
+            raise self._fail(f"{name}: {e}") from e
         except DriverError as e:
-            raise self._fail(f"{name}: {type(e).__name__}: {e}") from None
+            raise self._fail(f"{name}: {type(e).__name__}: {e}") from e
         except Exception as e:
             (ctx.record.dir / "error.txt").write_text("".join(traceback.format_exception(e)))
             log.error("stage %s raised", name, exc_info=e)
-            raise self._fail(f"{name}: unexpected {type(e).__name__}: {e} (traceback in error.txt)") from None
+            raise self._fail(f"{name}: unexpected {type(e).__name__}: {e} (traceback in error.txt)") from e
 
     def _end_motion(self, ctx: RunContext) -> None:
         """After a run that did not finish cleanly nothing may keep moving: the executor is stopped (on its path
         for an operator abort, at once otherwise) and the arm and gripper are stopped in every case."""
         if self.machine.state == State.DONE:
             return
-        if not ctx.extras.get("executing") and self.machine.state != State.ESTOPPED:
+        if not ctx.executing and self.machine.state != State.ESTOPPED:
             return
         graceful = self.supervisor.graceful_stop and self.machine.state == State.FAILED
         try:

@@ -121,7 +121,6 @@ def test_posts_without_the_console_header_are_refused(rig):
 
 def test_a_real_pipeline_run_shows_every_picture(real_rig, page):
     """Reasoning, grounding, planning, execution and verification for real (contact from runtime.sim_truth.oracle)."""
-    pytest.importorskip("pipeline.grounding.ground", reason="the grounding stage is not part of this build")
     console = real_rig[3]
     page.goto(console.url)
     page.wait_for_selector("#conn.ok")
