@@ -94,7 +94,7 @@ def test_servo_converts_radians_to_degrees_and_state_back(fakes):
     assert name == "set_servo_angle_j" and kwargs == {"is_radian": False}
     assert args[0] == pytest.approx(np.degrees(q).tolist())
     api.realtime_joint_speeds = [10.0] * 7
-    time.sleep(0.03)  # a few 100 Hz reports
+    assert api.wait_reports(3)  # reports sent after the set-point
     state = arm.read_state()
     assert state.q == pytest.approx(q) and state.qd == pytest.approx([math.radians(10)] * 7)
     assert state.fault_code == 0
@@ -307,12 +307,12 @@ def test_state_stamp_is_the_report_time_so_a_silent_report_link_shows(fakes):
     arm = make_arm(fakes)
     arm.connect()
     api = fakes[0]
-    time.sleep(0.05)
+    assert api.wait_reports(3)
     first = arm.read_state().stamp_s
-    time.sleep(0.05)
+    assert api.wait_reports(2)
     assert arm.read_state().stamp_s > first and arm.report_count >= 5
     api.report_hz = 0  # the report socket goes quiet while commands still work
-    time.sleep(0.05)
+    assert api.wait_reports(2)  # (a report under way when it went quiet has arrived)
     frozen = arm.read_state().stamp_s
-    time.sleep(0.05)
+    assert api.wait_reports(3)
     assert arm.read_state().stamp_s == frozen
