@@ -21,8 +21,10 @@ import tempfile
 import time
 from pathlib import Path
 
-# bench/runtime.py would shadow the runtime package: drop this folder from the import path
+# bench/runtime.py would shadow the runtime package: drop this folder from the import path, and measure the
+# checkout it belongs to (not whichever one the environment installed)
 sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 from rich.console import Console  # noqa: E402
