@@ -148,6 +148,10 @@ class Bridge:
                 page.offer(sse_frame("image", {"name": name, "version": version}))
         return page
 
+    def page_count(self) -> int:
+        with self._lock:
+            return len(self._pages)
+
     def detach(self, page: PageStream) -> None:
         with self._lock:
             if page in self._pages:

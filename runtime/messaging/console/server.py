@@ -93,6 +93,7 @@ class Handler(BaseHTTPRequestHandler):
         elif code >= 500:  # 505: an HTTP version it does not speak is the request's problem
             code = HTTPStatus.BAD_REQUEST
         self.close_connection = True
+        self.request_version = "HTTP/1.1"  # (http.server answers a request it could not parse without a status line)
         reason = message or HTTPStatus(code).phrase
         try:
             extra = {"Allow": "GET, POST"} if code == HTTPStatus.METHOD_NOT_ALLOWED else None
@@ -176,7 +177,7 @@ class Handler(BaseHTTPRequestHandler):
             body = self._body()
             if action != "estop":
                 bridge.act(action, body)
-        except (MessageRefused, ActionRefused) as e:
+        except (BodyRefused, MessageRefused, ActionRefused) as e:
             status = getattr(e, "status", HTTPStatus.BAD_REQUEST)
             extra = {"estop_sent": True} if action == "estop" else {}
             self._refuse(Refusal(status, str(e)), close=getattr(e, "close", False), **extra)
@@ -237,6 +238,7 @@ class ConsoleHTTPServer(ThreadingHTTPServer):
 
     daemon_threads = True
     block_on_close = False
+    request_queue_size = 2 * MAX_CONNECTIONS  # a burst waits to be answered (or refused), never a lost connect
 
     def __init__(self, address: tuple[str, int], bridge: Bridge, extra_hosts: frozenset[str] = frozenset()):
         self.address_family = socket.AF_INET6 if ":" in address[0] else socket.AF_INET
@@ -244,6 +246,7 @@ class ConsoleHTTPServer(ThreadingHTTPServer):
         self.bridge = bridge
         self.guard = Guard(self.server_address[1], frozenset(h.lower() for h in extra_hosts))
         self._slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
+        self.closing = False
 
     def process_request(self, request: socket.socket, client_address) -> None:
         if not self._slots.acquire(blocking=False):
@@ -264,7 +267,7 @@ class ConsoleHTTPServer(ThreadingHTTPServer):
 
     def handle_error(self, request: socket.socket, client_address) -> None:
         error = sys.exc_info()[1]
-        if isinstance(error, GONE):
+        if isinstance(error, GONE) or (self.closing and isinstance(error, OSError)):
             log.debug("console: client %s left (%s)", client_address, type(error).__name__)
         else:
             log.error("console: request from %s failed", client_address, exc_info=error)
@@ -302,6 +305,7 @@ class ConsoleServer:
 
     def close(self) -> None:
         """Ends the event streams and the server; quick, whatever the pages do."""
+        self.http.closing = True
         self.bridge.close()
         if self._thread is not None:
             self.http.shutdown()
@@ -312,10 +316,12 @@ class ConsoleServer:
 def serve_console(cfg: RuntimeConfig, host: str, port: int, extra_hosts: frozenset[str] = frozenset()) -> None:
     server = ConsoleServer(cfg, host, port, extra_hosts)
     print(f"operator console on {server.url} (robot {cfg.robot_id}, runtime at {cfg.zenoh.endpoint}); Ctrl-C quits")
-    signal.signal(signal.SIGTERM, signal.default_int_handler)  # a service manager's stop ends it like Ctrl-C
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):  # Ctrl-C, or a service manager's stop
+        signal.signal(sig, lambda *_: stop.set())
+    server.start()  # (the server runs on its own thread: a signal never lands inside it)
     try:
-        server.serve_forever()
-    except KeyboardInterrupt:
-        pass
+        while not stop.wait(1.0):
+            pass
     finally:
         server.close()
