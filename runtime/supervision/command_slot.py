@@ -41,7 +41,7 @@ class CommandSlot:
         with self._lock:
             cmd, self._waiting = self._waiting, None
             self.ready.clear()
-            self._busy = cmd is not None
+            self._busy = self._busy or cmd is not None
             return cmd
 
     def done(self) -> None:

@@ -51,3 +51,19 @@ def test_missing_api_key_stops_before_any_device_opens(sim_config_path, tmp_path
     profile.write_text(f"include: {sim_config_path}\npipeline: {{editor: gemini}}\n")
     result = runner.invoke(app, ["run", "--config", str(profile), "--instruction", "x", "--yes"])
     assert result.exit_code == 2 and "GEMINI_API_KEY" in result.output
+
+
+@pytest.mark.parametrize("kind", ["earlier run", "file"])
+def test_record_refuses_an_existing_run_folder_before_anything_runs(sim_config_path, tmp_path, kind):
+    target = tmp_path / "run"
+    if kind == "file":
+        target.write_text("not a folder")
+    else:
+        target.mkdir()
+        (target / "summary.json").write_text('{"status": "DONE"}')
+    before = {p.name: p.read_bytes() for p in ([target] if target.is_file() else target.iterdir())}
+    args = ["run", "--config", str(sim_config_path), "--instruction", "x", "--yes", "--record", str(target)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2 and str(target) in result.output, result.output
+    assert ("already holds files" if kind != "file" else "is not a folder") in result.output
+    assert {p.name: p.read_bytes() for p in ([target] if target.is_file() else target.iterdir())} == before
