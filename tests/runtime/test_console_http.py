@@ -174,6 +174,8 @@ def test_http_oddities_are_4xx(console):
     assert send(port, f"BREW /pot HTTP/1.1\r\n{host}\r\n".encode()).status == 405
     assert send(port, f"GET / HTTP/2.0\r\n{host}\r\n".encode()).status == 400
     assert send(port, b"GARBAGE\r\n\r\n").status == 400
+    assert send(port, b"GET /\r\n\r\n").status == 400  # HTTP/0.9: answered with a status line all the same
+    assert send(port, f"GET / HTTP/0.9\r\n{host}\r\n".encode()).status == 400
     assert send(port, b"GET /" + b"a" * 70000 + b" HTTP/1.1\r\n\r\n").status == 414
     assert send(port, f"GET /nope HTTP/1.1\r\n{host}\r\n".encode()).status == 404
 

@@ -101,6 +101,14 @@ class Handler(BaseHTTPRequestHandler):
         except GONE:
             pass
 
+    def parse_request(self) -> bool:
+        if not super().parse_request():
+            return False
+        if self.request_version not in ("HTTP/1.0", "HTTP/1.1"):  # HTTP/0.9 answers carry no status: refuse it
+            self.send_error(HTTPStatus.BAD_REQUEST, f"{self.request_version} is not spoken here (HTTP/1.1)")
+            return False
+        return True
+
     def _admit(self) -> bool:
         refusal = self.server.guard.check(self.headers, self.connection.getsockname()[0])
         if refusal is not None:
