@@ -34,5 +34,5 @@ class Throttle:
         held = self.admit()
         if held is None:
             return False
-        say(text if not held else f"{text} (and {held} more like it not shown)")
+        say(text if not held else f"{text} ({held} earlier notices held back)")
         return True

@@ -17,6 +17,7 @@ from runtime.messaging.messages import (
     MessageRefused,
     decode,
 )
+from runtime.messaging.throttle import Throttle
 
 NOW = 1.75e9
 
@@ -101,3 +102,15 @@ def test_command_kinds_and_sizes_are_bounded():
         decode(Command, payload(action="run", instruction="x" * 1001), NOW)
     with pytest.raises(MessageRefused, match="seq: input should be greater than or equal to 0"):
         decode(Heartbeat, payload(node="n", kind="estop", seq=-1), NOW)
+
+
+def test_a_flood_of_refusals_is_told_a_few_times_with_the_count():
+    clock = [0.0]
+    throttle = Throttle(per_period=3, period_s=1.0, clock=lambda: clock[0])
+    told: list[str] = []
+    for i in range(1000):
+        throttle.tell(f"refused {i}", told.append)
+    assert told == ["refused 0", "refused 1", "refused 2"]
+    clock[0] = 1.5
+    throttle.tell("refused 1000", told.append)
+    assert told[-1] == "refused 1000 (997 earlier notices held back)"
