@@ -191,7 +191,7 @@ def run(
     if allow_unvalidated_goal:
         overrides["pipeline"] = {"allow_unvalidated_goal": True}
     profile = _load(config, overrides or None)
-    if sim and profile.robot.kind != "sim":
+    if sim and not profile.robot.simulated:
         _fail(f"--scene/--seed only apply to sim profiles; {config} drives robot.kind {profile.robot.kind!r}")
     raise typer.Exit(run_command(profile, instruction, yes, record, serve))
 

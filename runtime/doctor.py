@@ -70,6 +70,11 @@ def device_factories(profile: Profile) -> tuple[Callable[[], Any], Callable[[], 
             lambda: SimArm(world, profile.robot.control_rate_hz),
             world.stop,
         )
+    if profile.robot.emulated:
+        from runtime.devices import _emulated_cell
+
+        cell = _emulated_cell(profile)
+        return (lambda: cell.camera), (lambda: cell.arm), cell.stop
     from runtime.devices import _hardware_devices
 
     camera, arm, _, _ = _hardware_devices(profile)

@@ -76,7 +76,7 @@ class Runtime:
         prompt: Callable[[PlanSummary], bool] | None = None,
     ) -> None:
         cfg = profile.runtime
-        if cfg.estop_node == "in_process" and profile.robot.kind != "sim":
+        if cfg.estop_node == "in_process" and not profile.robot.simulated:
             raise ValueError(
                 f"runtime.estop_node 'in_process' is for the sim only; robot.kind is {profile.robot.kind!r}: "
                 "run `goalvla estop` on a terminal next to the robot"
@@ -147,7 +147,7 @@ class Runtime:
         run_dir = run_dir or self.profile.runtime.runs_dir / run_id
         record = RunRecord(run_dir, run_id, self.bus)
         record.note(instruction=instruction, profile=self.profile.name, robot_id=self.profile.runtime.robot_id)
-        if self.profile.robot.kind == "sim":
+        if self.profile.robot.simulated:
             record.note(scene=self.profile.sim.scene, seed=self.profile.sim.seed)
         self.status.run_id, self.status.plan_id, self.status.instruction = run_id, "", instruction
         ctx = RunContext(self.profile, self.devices, instruction, record, self.supervisor.cancel)
