@@ -1,8 +1,11 @@
 """An emulated cell: the MuJoCo twin, the controller emulator over it, and the devices a profile drives there (the
-real XArm7 + XArmGripper through the SDK to the emulator, the SimCamera rendering the same world)."""
+real XArm7 + XArmGripper through the SDK to the emulator, the SimCamera rendering the same world); and the
+emulator alone for `goalvla emulator`."""
 
 from __future__ import annotations
 
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,3 +47,30 @@ class EmulatedCell:
         """After the devices closed: the emulator's ports, then the physics thread."""
         self.emulator.stop()
         self.world.stop()
+
+
+def serve(
+    sim: SimConfig,
+    camera: CameraConfig,
+    address: str | None,
+    control_rate_hz: float,
+    echo: Callable[[str], None],
+    stop: threading.Event,
+) -> None:
+    """`goalvla emulator`: a controller for any SDK client (scripts, xArm tools) until `stop` is set or Ctrl-C."""
+    world = SimWorld(sim, camera)
+    try:
+        with XArmEmulator(world, address, control_rate_hz) as emulator:
+            echo(
+                f"xArm 7 controller emulator on {emulator.address} (commands :502, 'real' report :30003), "
+                f"scene {sim.scene} seed {sim.seed}; Ctrl-C stops"
+            )
+            try:
+                while not stop.wait(0.2):
+                    pass
+            except KeyboardInterrupt:
+                pass
+            j = emulator.journal
+            echo(f"served {len(j.accepted())} set-points, {len(j.errors)} controller errors, {len(j.stops)} stops")
+    finally:
+        world.stop()

@@ -18,6 +18,7 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -96,7 +97,7 @@ class EmulatedGripper:
         0x000F,
         0x0000,
     )
-    VERSION = {0x0801: 3, 0x0802: 4, 0x0803: 3}
+    VERSION: ClassVar[dict[int, int]] = {0x0801: 3, 0x0802: 4, 0x0803: 3}  # gripper firmware 3.4.3
 
     def __init__(self, world: SimWorld) -> None:
         self.sim = SimGripper(world)
@@ -112,10 +113,10 @@ class EmulatedGripper:
 
     def read_register(self, address: int) -> int:
         if address in (self.POSITION, self.POSITION + 1):
-            word = int(round(self.position())) & 0xFFFFFFFF
+            word = round(self.position()) & 0xFFFFFFFF
             return word >> 16 if address == self.POSITION else word & 0xFFFF
         if address in (self.TARGET, self.TARGET + 1):
-            word = int(round(self.target)) & 0xFFFFFFFF
+            word = round(self.target) & 0xFFFFFFFF
             return word >> 16 if address == self.TARGET else word & 0xFFFF
         return {
             self.ENABLE: int(self.enabled),

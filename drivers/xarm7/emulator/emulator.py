@@ -3,8 +3,8 @@
     with XArmEmulator(world) as emulator:          # listens on a free 127.0.0.N, ports 502 and 30003
         arm = XArm7(RobotConfig(kind="xarm7", ip=emulator.address), safety)
 
-Faults are switched through `emulator.faults` (stalls, corrupt replies, a controller error after n set-points, a
-silent report) and the link methods here (drop a connection, refuse new ones, the e-stop button).
+Faults are switched through `emulator.faults` (stalls, corrupt replies, a silent report, any action after the n-th
+set-point) and the methods here (drop a connection, refuse new ones, a controller error, the e-stop button).
 """
 
 from __future__ import annotations
@@ -85,6 +85,12 @@ class XArmEmulator:
 
     def accept_connections(self) -> None:
         self._server().accept_connections()
+
+    def error_after(self, setpoints: int, code: int = 31) -> None:
+        """The controller raises error `code` right after executing the n-th set-point from now."""
+        self.faults.after_setpoints(
+            setpoints, lambda: self.model.trip(code, "injected mid-trajectory"), f"controller error {code}"
+        )
 
     def press_estop_button(self) -> None:
         self.model.press_estop_button()

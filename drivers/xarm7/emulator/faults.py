@@ -1,14 +1,15 @@
 """Protocol-level faults, each switchable from a test: the server consults these switches as it serves.
 
-One-shot faults (a stalled or corrupted reply, a controller error after n set-points) disarm when they fire;
-every fault that fires is stamped in `fired` (name -> time.monotonic()) and sets `any_fired`, so a test can wait
-on the event instead of sleeping.
+One-shot faults (a stalled or corrupted reply, an action after the n-th set-point, such as a controller error or
+a dropped link mid-trajectory) disarm when they fire; every fault that fires is stamped in `fired` (name ->
+time.monotonic()) and sets `any_fired`, so a test can wait on the event instead of sleeping.
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -31,7 +32,7 @@ class Faults:
         self._lock = threading.Lock()
         self._stall: _Armed | None = None
         self._corrupt: _Armed | None = None
-        self._error_after: tuple[int, int] | None = None  # (accepted set-points still to come, error code)
+        self._after: tuple[int, Callable[[], None], str] | None = None  # (set-points still to come, action, name)
         self.report_silent = False
         self.refusing = False
         self.fired: dict[str, float] = {}
@@ -53,10 +54,12 @@ class Faults:
         with self._lock:
             self._corrupt = _Armed(int(register), how)
 
-    def error_after(self, setpoints: int, code: int = 31) -> None:
-        """The controller raises `code` when the n-th set-point from now has been executed (mid-trajectory)."""
+    def after_setpoints(self, setpoints: int, action: Callable[[], None], name: str) -> None:
+        """Run `action` (on the serving thread, before the reply) once the n-th set-point from now was executed."""
+        if setpoints < 1:
+            raise ValueError("after_setpoints needs n >= 1")
         with self._lock:
-            self._error_after = (setpoints, code)
+            self._after = (setpoints, action, name)
 
     def silence_report(self, silent: bool = True) -> None:
         """The report connection stays open but nothing more is sent on it (or sending resumes)."""
@@ -88,15 +91,15 @@ class Faults:
             self.fire(f"corrupt reply ({how})")
         return how  # type: ignore[return-value]
 
-    def count_setpoint(self) -> int | None:
-        """Called per executed set-point: the error code to raise now, if one is due."""
+    def count_setpoint(self) -> None:
+        """Called per executed set-point: runs the armed action when its set-point has come."""
         with self._lock:
-            if self._error_after is None:
-                return None
-            left, code = self._error_after
+            if self._after is None:
+                return
+            left, action, name = self._after
             if left > 1:
-                self._error_after = (left - 1, code)
-                return None
-            self._error_after = None
-        self.fire(f"controller error {code}")
-        return code
+                self._after = (left - 1, action, name)
+                return
+            self._after = None
+        self.fire(name)
+        action()

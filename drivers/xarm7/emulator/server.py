@@ -238,9 +238,7 @@ class ControllerServer:
                 log.warning("xArm emulator: register %d: %s", request.register, e)
                 answer = Answer(valid=False)
         if request.register == Register.SERVO_J and answer.valid:
-            code = self.faults.count_setpoint()
-            if code is not None:
-                self.model.trip(code, "injected mid-trajectory")
+            self.faults.count_setpoint()
         status = self.model.status() | (Status.OK if answer.valid else Status.INVALID)
         frame = reply(request, status, answer.payload)
         stall = self.faults.take_stall(request.register)
