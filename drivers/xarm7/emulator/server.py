@@ -180,9 +180,9 @@ class ControllerServer:
                 time.sleep(0.01)
                 continue
             with selectors.DefaultSelector() as sel:
-                for s in listeners:
-                    sel.register(s, selectors.EVENT_READ)
                 try:
+                    for s in listeners:
+                        sel.register(s, selectors.EVENT_READ)
                     ready = sel.select(timeout=0.05)
                 except (OSError, ValueError):  # a listener was closed under us (refuse_connections, stop)
                     continue
