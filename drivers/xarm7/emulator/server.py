@@ -193,6 +193,9 @@ class ControllerServer:
                         continue
                     link.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                     if key.fileobj.getsockname()[1] == COMMAND_PORT:
+                        # blocking: the SDK sets a process-wide default socket timeout of 1 s, which an accepted
+                        # socket would inherit, closing an idle command link (in-process clients only)
+                        link.settimeout(None)
                         with self._lock:
                             self._command_links.append(link)
                         self.connections["command"] += 1
