@@ -36,3 +36,29 @@ def wait_for(predicate: Callable[[], bool], timeout_s: float = 3.0, period_s: fl
             return True
         time.sleep(period_s)
     return predicate()
+
+
+def free_loopback_address() -> str:
+    """A 127.0.0.N whose ports 502 and 30003 are free right now (for a profile that starts its own emulator)."""
+    from drivers.xarm7.emulator.server import bind_controller_ports
+
+    address, command, report = bind_controller_ports(None)
+    command.close()
+    report.close()
+    return address
+
+
+def free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def emulated_overrides() -> dict:
+    """The emulated profile on its own loopback address and Zenoh port (tests run beside each other)."""
+    return {
+        "robot": {"ip": free_loopback_address()},
+        "runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}},
+    }

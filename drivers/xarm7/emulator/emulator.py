@@ -32,7 +32,8 @@ class XArmEmulator:
         self.model = ControllerModel(world, control_rate_hz)
         self.faults = Faults()
         self._address, self._report_hz = address, report_hz
-        self.server: ControllerServer | None = None
+        self.server: ControllerServer | None = None  # kept after stop() for what it served
+        self._running = False
 
     @property
     def address(self) -> str:
@@ -41,24 +42,30 @@ class XArmEmulator:
         return self.server.address
 
     @property
+    def running(self) -> bool:
+        return self._running
+
+    @property
     def journal(self) -> Journal:
         return self.model.journal
 
     def start(self) -> Self:
         """Bind both ports (EmulatorBindError if taken), power the controller on, serve."""
-        if self.server is not None:
+        if self._running:
             return self
-        server = ControllerServer(self.model, self.faults, self._address, self._report_hz)
+        if self.server is not None:
+            raise RuntimeError("an XArmEmulator starts once; make a new one")
+        self.server = ControllerServer(self.model, self.faults, self._address, self._report_hz)
         self.model.connect()
-        server.start()
-        self.server = server
+        self.server.start()
+        self._running = True
         return self
 
     def stop(self) -> None:
         """Close every connection and both ports (idempotent)."""
-        server, self.server = self.server, None
-        if server is not None:
-            server.stop()
+        if self._running:
+            self._running = False
+            self.server.stop()
 
     def __enter__(self) -> Self:
         return self.start()
@@ -70,7 +77,7 @@ class XArmEmulator:
 
     # -- link and controller faults -----------------------------------------------------------------------
     def _server(self) -> ControllerServer:
-        if self.server is None:
+        if not self._running:
             raise RuntimeError("the emulator is not running")
         return self.server
 

@@ -42,7 +42,15 @@ log = logging.getLogger(__name__)
 
 REPORT_HZ = 100.0
 REPORT_SEND_TIMEOUT_S = 1.0
+CONTROLLER_PRIORITY = 20  # above the PC's streaming thread (10) and the SDK's (11): the controller is not the PC
 LOOPBACK_HOSTS = range(2, 255)  # 127.0.0.N
+
+
+def _real_time() -> None:
+    """The controller is its own real-time system, whatever the PC's load: SCHED_FIFO for the calling thread where
+    permitted (root or CAP_SYS_NICE), a normal thread otherwise."""
+    with contextlib.suppress(OSError, AttributeError):
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(CONTROLLER_PRIORITY))
 
 
 class EmulatorBindError(OSError):
@@ -208,6 +216,7 @@ class ControllerServer:
 
     # -- commands -----------------------------------------------------------------------------------------
     def _serve(self, link: socket.socket) -> None:
+        _real_time()
         reader = FrameReader()
         try:
             while self._running.is_set():
@@ -258,6 +267,7 @@ class ControllerServer:
 
     # -- report -------------------------------------------------------------------------------------------
     def _publish(self) -> None:
+        _real_time()
         t_next = time.monotonic()
         while self._running.is_set():
             t_next += self.period
