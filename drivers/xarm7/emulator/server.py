@@ -20,6 +20,7 @@ import selectors
 import socket
 import threading
 import time
+from collections import deque
 
 from drivers.xarm7.emulator.controller import ControllerModel
 from drivers.xarm7.emulator.faults import TRUNCATED_BYTES, Faults
@@ -42,6 +43,7 @@ log = logging.getLogger(__name__)
 
 REPORT_HZ = 100.0
 REPORT_SEND_TIMEOUT_S = 1.0
+REPORTS_KEPT = 12_000  # the last two minutes of reports sent, for latency measurements
 CONTROLLER_PRIORITY = 20  # above the PC's streaming thread (10) and the SDK's (11): the controller is not the PC
 LOOPBACK_HOSTS = range(2, 255)  # 127.0.0.N
 
@@ -112,7 +114,7 @@ class ControllerServer:
         self._threads: list[threading.Thread] = []
         self.requests: list[tuple[float, int]] = []  # (time.monotonic(), register) of every request served
         self.unknown: list[int] = []  # registers the emulator does not implement (answered invalid)
-        self.report_stamps: list[float] = []  # time.monotonic() of each report sent (the last few thousand)
+        self.sent_reports: deque[tuple[float, bytes]] = deque(maxlen=REPORTS_KEPT)  # (time.monotonic(), frame)
         self.connections = {"command": 0, "report": 0}
 
     # -- lifecycle ----------------------------------------------------------------------------------------
@@ -290,6 +292,4 @@ class ControllerServer:
                         if s in self._report_links:
                             self._report_links.remove(s)
                     s.close()
-            self.report_stamps.append(time.monotonic())
-            if len(self.report_stamps) > 4096:
-                del self.report_stamps[:2048]
+            self.sent_reports.append((time.monotonic(), frame))
