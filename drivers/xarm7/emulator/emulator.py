@@ -15,7 +15,7 @@ from typing import Self
 from drivers.sim.world import SimWorld
 from drivers.xarm7.emulator.controller import ControllerModel, Journal
 from drivers.xarm7.emulator.faults import Faults
-from drivers.xarm7.emulator.server import REPORT_HZ, ControllerServer
+from drivers.xarm7.emulator.server import REPORT_HZ, ControllerServer, real_time
 
 
 class XArmEmulator:
@@ -57,6 +57,8 @@ class XArmEmulator:
             raise RuntimeError("an XArmEmulator starts once; make a new one")
         self.server = ControllerServer(self.model, self.faults, self._address, self._report_hz)
         self.model.connect()
+        if self.world.physics_thread_id is not None:
+            real_time(self.world.physics_thread_id)  # the twin stands for the robot: it keeps time like one
         self.server.start()
         self._running = True
         return self

@@ -48,11 +48,11 @@ CONTROLLER_PRIORITY = 20  # above the PC's streaming thread (10) and the SDK's (
 LOOPBACK_HOSTS = range(2, 255)  # 127.0.0.N
 
 
-def _real_time() -> None:
-    """The controller is its own real-time system, whatever the PC's load: SCHED_FIFO for the calling thread where
-    permitted (root or CAP_SYS_NICE), a normal thread otherwise."""
+def real_time(thread_id: int = 0) -> None:
+    """The controller (and the robot behind it) is its own real-time system, whatever the PC's load: SCHED_FIFO
+    for a thread (0: the calling one) where permitted (root or CAP_SYS_NICE), a normal thread otherwise."""
     with contextlib.suppress(OSError, AttributeError):
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(CONTROLLER_PRIORITY))
+        os.sched_setscheduler(thread_id, os.SCHED_FIFO, os.sched_param(CONTROLLER_PRIORITY))
 
 
 class EmulatorBindError(OSError):
@@ -218,7 +218,7 @@ class ControllerServer:
 
     # -- commands -----------------------------------------------------------------------------------------
     def _serve(self, link: socket.socket) -> None:
-        _real_time()
+        real_time()
         reader = FrameReader()
         try:
             while self._running.is_set():
@@ -269,7 +269,7 @@ class ControllerServer:
 
     # -- report -------------------------------------------------------------------------------------------
     def _publish(self) -> None:
-        _real_time()
+        real_time()
         t_next = time.monotonic()
         while self._running.is_set():
             t_next += self.period
