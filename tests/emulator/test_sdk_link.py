@@ -99,7 +99,7 @@ def test_a_refused_connection_leaves_nothing_open(emulator, safety):
     arm = make_arm(emulator, safety)
     with pytest.raises(DeviceNotFoundError, match="no xArm controller answers"):
         arm.connect()
-    assert arm.api is None and not arm.is_connected and emulator.server.requests == []
+    assert arm.api is None and not arm.is_connected and not emulator.server.requests
     arm.close()  # nothing to release, no error
     emulator.accept_connections()
     with arm:

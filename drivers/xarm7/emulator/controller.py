@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -39,6 +40,7 @@ JOINT_LIMIT_ERROR, SPEED_ERROR, COLLISION_ERROR, FENCE_ERROR = 23, 24, 31, 35
 # controller compares measured current with its dynamic model; the twin's contact torques stand in for the residual.
 COLLISION_TORQUE_N_M = {1: 40.0, 2: 30.0, 3: 20.0, 4: 14.0, 5: 8.0}
 NO_BOUNDARY_MM = (9999.0, -9999.0, 9999.0, -9999.0, 9999.0, -9999.0)
+SETPOINTS_KEPT = 200_000  # the journal keeps the last ~30 min at 100 Hz (a standalone emulator runs for hours)
 FIRMWARE = "2.7.1"  # the firmware on which the ~200 ms servo-call stall was reported
 ROBOT_SN = "XI1303EMULATED"  # xArm 7, a serial number the SDK maps to the standard joint ranges
 CONTROL_BOX_SN = "AC1303EMU"  # the version reply is 40 bytes with a terminating NUL: keep it short
@@ -74,7 +76,7 @@ class SetPoint:
 class Journal:
     """What reached the controller, for tests and the bench."""
 
-    setpoints: list[SetPoint] = field(default_factory=list)
+    setpoints: deque[SetPoint] = field(default_factory=lambda: deque(maxlen=SETPOINTS_KEPT))
     stops: list[float] = field(default_factory=list)  # time.monotonic() of each set_state(4)
     errors: list[tuple[float, int, str]] = field(default_factory=list)
     stopped: threading.Event = field(default_factory=threading.Event)  # set on every stop or error

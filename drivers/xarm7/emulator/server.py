@@ -43,6 +43,7 @@ log = logging.getLogger(__name__)
 
 REPORT_HZ = 100.0
 REPORT_SEND_TIMEOUT_S = 1.0
+REQUESTS_KEPT = 400_000  # the last half hour of requests served
 REPORTS_KEPT = 12_000  # the last two minutes of reports sent, for latency measurements
 CONTROLLER_PRIORITY = 20  # above the PC's streaming thread (10) and the SDK's (11): the controller is not the PC
 LOOPBACK_HOSTS = range(2, 255)  # 127.0.0.N
@@ -88,7 +89,10 @@ def bind_controller_ports(address: str | None) -> tuple[str, socket.socket, sock
         try:
             return address, *_bind_pair(address)
         except OSError as e:
-            raise EmulatorBindError(f"cannot listen on {address}:{COMMAND_PORT} and :{REPORT_PORT}: {e}") from e
+            raise EmulatorBindError(
+                f"cannot listen on {address}:{COMMAND_PORT} and :{REPORT_PORT}: {e} (another emulator there? "
+                "port 502 needs root or CAP_NET_BIND_SERVICE)"
+            ) from e
     start = os.getpid() % len(LOOPBACK_HOSTS)
     last: OSError | None = None
     for i in range(len(LOOPBACK_HOSTS)):
@@ -98,7 +102,8 @@ def bind_controller_ports(address: str | None) -> tuple[str, socket.socket, sock
         except OSError as e:
             last = e
     raise EmulatorBindError(
-        f"no loopback address 127.0.0.2-254 has ports {COMMAND_PORT} and {REPORT_PORT} free: {last}"
+        f"no loopback address 127.0.0.2-254 has ports {COMMAND_PORT} and {REPORT_PORT} free: {last} "
+        "(port 502 needs root or CAP_NET_BIND_SERVICE)"
     )
 
 
@@ -112,7 +117,7 @@ class ControllerServer:
         self._command_links: list[socket.socket] = []
         self._report_links: list[socket.socket] = []
         self._threads: list[threading.Thread] = []
-        self.requests: list[tuple[float, int]] = []  # (time.monotonic(), register) of every request served
+        self.requests: deque[tuple[float, int]] = deque(maxlen=REQUESTS_KEPT)  # (time.monotonic(), register)
         self.unknown: list[int] = []  # registers the emulator does not implement (answered invalid)
         self.sent_reports: deque[tuple[float, bytes]] = deque(maxlen=REPORTS_KEPT)  # (time.monotonic(), frame)
         self.connections = {"command": 0, "report": 0}
