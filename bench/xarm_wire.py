@@ -8,7 +8,8 @@ loopback TCP, against the sim arm (in-process, no wire) as the baseline, in the 
    straight from the world, so its figure is the servo call alone. Targets: jitter p99 <= 1 ms at 250 Hz through
    the SDK (the ratio to the sim arm is in the JSON).
 2. Protocol faults mid-trajectory (controller error, report dropped or silent, malformed and truncated reply,
-   dropped command link): control ticks from the executor detecting the fault to the controller receiving the stop.
+   dropped command link): how long after the fault the executor detected it, and control ticks from detection to
+   the controller receiving the stop.
    Target <= 2 ticks; with the command link dropped no stop can arrive, so the figure is the set-points executed
    after detection (must be 0).
 3. Whole runs: `goalvla run --yes` as a subprocess with configs/sim.yaml and configs/emulated.yaml, the same scene
@@ -197,6 +198,7 @@ def fault(name: str, robot: RobotModel, rate_hz: float = 100.0) -> dict:
                 ex = TimedExecutor(arm, ExecutorConfig.from_configs(arm.config, profile.safety), limits)
                 report = ex.execute(approved)
             detected = getattr(ex, "detected_s", None)
+            onset = min(emulator.faults.fired.values())  # the n-th set-point, when the fault was switched on
             stops = [t for t in emulator.journal.stops if detected is not None and t >= detected]
             after = sum(1 for s in emulator.journal.accepted() if detected is not None and s.stamp_s > detected)
     finally:
@@ -205,6 +207,7 @@ def fault(name: str, robot: RobotModel, rate_hz: float = 100.0) -> dict:
     return {
         "status": report.status,
         "reason": report.reason,
+        "detection_ms_after_fault": None if detected is None else 1000 * (detected - onset),
         "stop_ticks_after_detection": stop_ticks,
         "setpoints_after_detection": after,
         "stop_reached_controller": bool(stops),
@@ -313,11 +316,13 @@ def main() -> None:
         )
     Console().print(table)
     faults = Table(title="xarm_wire: faults")
-    for column in ("fault", "status", "stop ticks after detection", "set-points after", "reason"):
+    columns = ("fault", "status", "detected after [ms]", "stop ticks after detection", "set-points after", "reason")
+    for column in columns:
         faults.add_column(column, overflow="fold")
     for name, f in result["faults"].items():
         ticks = "-" if f["stop_ticks_after_detection"] is None else f"{f['stop_ticks_after_detection']:.2f}"
-        faults.add_row(name, f["status"], ticks, str(f["setpoints_after_detection"]), f["reason"][:70])
+        late = "-" if f["detection_ms_after_fault"] is None else f"{f['detection_ms_after_fault']:.0f}"
+        faults.add_row(name, f["status"], late, ticks, str(f["setpoints_after_detection"]), f["reason"][:60])
     Console().print(faults)
     summary = Table(title="xarm_wire: targets")
     for column in ("measure", "value", "target", "met"):
