@@ -228,7 +228,11 @@ def _check_yaml_tree(root: yaml.Node, path: Path, what: str, max_nodes: int) -> 
                     if ident in first:
                         dotted = ".".join((*key_path, name))
                         raise InputFileError(
-                            path, f"duplicate key (first set at line {first[ident]})", dotted, key_line
+                            path,
+                            f"duplicate key (first set at line {first[ident]})",
+                            dotted,
+                            key_line,
+                            key_node.start_mark.column + 1,
                         )
                     first[ident] = key_line
                 stack.append((value, (*key_path, name)))
