@@ -267,7 +267,16 @@ def load_yaml(path: Path, what: str, max_bytes: int = MAX_YAML_BYTES, max_nodes:
 # -- NPZ ------------------------------------------------------------------------------------------------------
 _EOCD = b"PK\x05\x06"
 _EOCD_SEARCH = 2**16 + 22  # the end record sits within the last 64 KiB (its comment) + 22 bytes
-_READ_ERRORS = (OSError, EOFError, ValueError, zipfile.BadZipFile, zlib.error, NotImplementedError, struct.error)
+_READ_ERRORS = (  # what zipfile and numpy raise on a broken archive; RuntimeError: an encrypted member
+    OSError,
+    EOFError,
+    ValueError,
+    RuntimeError,
+    zipfile.BadZipFile,
+    zlib.error,
+    NotImplementedError,
+    struct.error,
+)
 HeaderCheck = Callable[[str, tuple[int, ...], np.dtype], None]
 
 
@@ -321,10 +330,13 @@ def read_npz(
         with zipfile.ZipFile(path) as zf:
             members = [info for info in zf.infolist() if not info.is_dir()]
             declared = 0
+            names = [info.filename for info in members]
             for info in members:
                 key = info.filename.removesuffix(".npy")
                 if not info.filename.endswith(".npy"):
                     raise InputFileError(path, "not an .npy member", info.filename)
+                if names.count(info.filename) > 1:
+                    raise InputFileError(path, "member repeated in the archive (which one counts?)", key)
                 with zf.open(info) as f:
                     shape, dtype = _npy_header(f, path, key)
                 if dtype.hasobject:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import warnings
 import zipfile
 
 import numpy as np
@@ -164,6 +165,25 @@ def many_members_npz(n: int) -> bytes:
     return buf.getvalue()
 
 
+def encrypted_npz(arrays: dict[str, np.ndarray]) -> bytes:
+    """A valid archive with its first member flagged as encrypted (zipfile then wants a password)."""
+    data = bytearray(npz_bytes(arrays))
+    data[6] |= 1  # general-purpose flag of the first local header
+    data[data.find(b"PK\x01\x02") + 8] |= 1  # and of its central directory entry
+    return bytes(data)
+
+
+def repeated_member_npz(key: str, first: np.ndarray, second: np.ndarray) -> bytes:
+    """Two members of the same name: which one a reader takes is up to the reader."""
+    buf = io.BytesIO()
+    with warnings.catch_warnings(), zipfile.ZipFile(buf, "w") as zf:
+        warnings.simplefilter("ignore")  # zipfile warns about the duplicate name
+        for array in (first, second):
+            with zf.open(f"{key}.npy", "w") as f:
+                np.lib.format.write_array(f, array)
+    return buf.getvalue()
+
+
 def huge_header_npz(key: str) -> bytes:
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as zf:
@@ -227,7 +247,9 @@ def mutated_arrays(draw, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]
 @st.composite
 def npz_files(draw, valid: dict[str, np.ndarray]) -> bytes:
     """An .npz built from valid arrays, mutated, maybe compressed, maybe broken at the byte level, or crafted."""
-    family = draw(st.sampled_from(["mutated", "mutated", "mutated", "bytes", "bomb", "members", "header", "npy"]))
+    family = draw(
+        st.sampled_from(["mutated", "mutated", "mutated", "bytes", "bomb", "members", "header", "npy", "encrypted"])
+    )
     key = draw(st.sampled_from(sorted(valid)))
     if family == "bomb":
         side = draw(st.sampled_from([65536, 100_000, 2**31]))
@@ -237,6 +259,8 @@ def npz_files(draw, valid: dict[str, np.ndarray]) -> bytes:
         return many_members_npz(draw(st.sampled_from([33, 2000])))
     if family == "header":
         return huge_header_npz(key)
+    if family == "encrypted":
+        return encrypted_npz(valid)
     if family == "npy":
         buf = io.BytesIO()
         np.save(buf, valid[key])

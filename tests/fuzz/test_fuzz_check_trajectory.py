@@ -17,6 +17,7 @@ from payloads import (
     many_members_npz,
     npz_bytes,
     npz_files,
+    repeated_member_npz,
     trajectory_files,
     valid_trajectory,
     world_files,
@@ -134,6 +135,7 @@ POINTS_CASES = {
     "unknown key": (npz_bytes({"points": np.zeros((10, 3)), "colors": np.zeros(3)}), "colors"),
     "many members": (many_members_npz(5000), "members"),
     "huge header": (huge_header_npz("points"), "cannot read points file"),
+    "repeated member": (repeated_member_npz("points", np.zeros((3, 3)), np.full((3, 3), 5.0)), "repeated"),
 }
 
 

@@ -10,7 +10,7 @@ import pytest
 from fuzz_harness import CliOutcome, assert_refused, run_cli
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
-from payloads import declared_npz, huge_header_npz, many_members_npz, npz_bytes, npz_files, small_pair
+from payloads import declared_npz, encrypted_npz, huge_header_npz, many_members_npz, npz_bytes, npz_files, small_pair
 
 fuzz = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
@@ -54,6 +54,7 @@ PAIR_CASES = {  # the families the issue lists: content -> words the refusal mus
     "pickled objects": (_with(mask0=np.array([None], dtype=object)), ["mask0", "Python objects"]),
     "many members": (many_members_npz(3000), ["members"]),
     "huge .npy header": (huge_header_npz("K"), ["cannot read PAIR.npz"]),
+    "encrypted member": (encrypted_npz(small_pair()), ["encrypted"]),
     "unknown key": (_with(depth_0=np.zeros(3)), ["depth_0", "unknown key"]),
     "depth0 of 1e38": (_with(depth0=np.full((24, 32), 1e38, np.float32)), ["depth0", "m"]),
     "depth0 infinite": (_with(depth0=np.full((24, 32), np.inf, np.float32)), ["depth0", "infinite"]),
