@@ -24,6 +24,15 @@ def _fail(message: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
+def _writable(path: Path, what: str, folder: bool = False) -> None:
+    from drivers.files import InputFileError, check_output_path
+
+    try:
+        check_output_path(path, what, folder)
+    except InputFileError as e:
+        _fail(str(e))
+
+
 def _load(config: Path, overrides: dict | None = None):
     from runtime.config import ConfigError, load_profile
 
@@ -43,6 +52,7 @@ def capture(
     from runtime.devices import open_devices
 
     profile = _load(config)
+    _writable(out, "the capture folder (--out)", folder=True)
     with open_devices(profile) as devices:
         frame = devices.capture()
     for path in save_frame(frame, out):
@@ -60,6 +70,7 @@ def demo(
     profile = _load(config)
     if profile.robot.kind != "sim":
         _fail("the demo only drives the simulated arm; use a sim profile")
+    _writable(out, "the demo folder (--out)", folder=True)
     try:
         run_demo(profile, out)
     except DemoRefused as e:
@@ -135,6 +146,7 @@ def calibrate_hand_eye(
         _fail(f"--mode must be one of {', '.join(modes)}, got {mode!r}")
     profile = _load(config)
     target = out or profile.calibration.file or Path(f"calibration/{modes[mode]}.yaml")
+    _writable(target, "the calibration file")
     try:
         spec = load_board(board)
         code = run_hand_eye(
