@@ -33,7 +33,7 @@ from calibration.session import (  # noqa: E402
 from drivers.sim import SimArm, SimCamera, SimWorld, SteppedClock  # noqa: E402
 from motion.executor import ExecutorConfig  # noqa: E402
 from motion.limits import MotionLimits  # noqa: E402
-from runtime.calibrate import pose_error, sim_overrides  # noqa: E402
+from runtime.commands.calibrate import pose_error, sim_overrides  # noqa: E402
 from runtime.config import load_profile  # noqa: E402
 from safety.collision import CollisionWorld  # noqa: E402
 from safety.robot_model import RobotModel  # noqa: E402

@@ -34,6 +34,7 @@ from rich.table import Table  # noqa: E402
 
 from drivers.sim import SimCamera, SimWorld  # noqa: E402
 from pipeline.config import PipelineConfig  # noqa: E402
+from pipeline.grounding.compare import rotation_deg, without_turn_about  # noqa: E402
 from pipeline.grounding.ground import ground  # noqa: E402
 from pipeline.grounding.types import GroundingInput  # noqa: E402
 from pipeline.perception.features import make_feature_extractor  # noqa: E402
@@ -41,7 +42,6 @@ from pipeline.reasoning.factory import build_reasoner  # noqa: E402
 from pipeline.reasoning.instruction import parse_instruction  # noqa: E402
 from pipeline.reasoning.types import ReasoningError  # noqa: E402
 from runtime.config import load_profile  # noqa: E402
-from runtime.verify import rotation_deg, without_turn_about  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 TARGETS = {"accepted_fraction": 0.9, "grounded_within_tolerance_fraction": 0.9, "reasoning_s_median": 2.0}

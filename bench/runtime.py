@@ -21,8 +21,10 @@ import tempfile
 import time
 from pathlib import Path
 
-# bench/runtime.py would shadow the runtime package: drop this folder from the import path
+# bench/runtime.py would shadow the runtime package: drop this folder from the import path, and measure the
+# checkout it belongs to (not whichever one the environment installed)
 sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 from rich.console import Console  # noqa: E402
@@ -43,9 +45,9 @@ TASKS = [
 ]
 SENDER = """
 import sys, time
-from runtime.bus import Bus
+from runtime.messaging.bus import Bus
 from runtime.config import ZenohConfig
-from runtime.messages import EStop
+from runtime.messaging.messages import EStop
 bus = Bus(ZenohConfig(endpoint=sys.argv[1]), "bench", "connect")
 n, gap = int(sys.argv[2]), float(sys.argv[3])
 time.sleep(1.0)  # let the session connect
@@ -66,11 +68,11 @@ def free_port() -> int:
 
 
 def estop_latency(trials: int) -> dict:
-    from runtime.bus import Bus
     from runtime.config import RuntimeConfig, ZenohConfig, load_profile
     from runtime.devices import open_devices
-    from runtime.states import StateMachine
-    from runtime.supervisor import Supervisor
+    from runtime.messaging.bus import Bus
+    from runtime.supervision.states import StateMachine
+    from runtime.supervision.supervisor import Supervisor
 
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     profile = load_profile(CONFIG)
@@ -87,7 +89,7 @@ def estop_latency(trials: int) -> dict:
         arm.stop = timed_stop  # the bench's probe: the instant the supervisor commands the stop
         cfg = RuntimeConfig(robot_id="bench", zenoh=ZenohConfig(endpoint=endpoint))
         bus = Bus(cfg.zenoh, cfg.robot_id, "listen")
-        from runtime.messages import EStop
+        from runtime.messaging.messages import EStop
 
         bus.subscribe(bus.keys.estop, EStop, lambda k, m: sent.append(m.stamp_s))
         machine = StateMachine(cfg.budgets_s)
@@ -111,18 +113,20 @@ def estop_latency(trials: int) -> dict:
 def runs(count: int, out_dir: Path, contact: str) -> dict:
     from runtime.config import load_profile
     from runtime.devices import open_devices
-    from runtime.runner import Runtime
-    from runtime.stages import PipelineStages
+    from runtime.run.runner import Runtime
+    from runtime.run.stages import PipelineStages
+    from runtime.sim_truth.listener import SimTruth
 
     scenes_dir = REPO / "configs" / "scenes"
     tasks = [t for t in TASKS if (scenes_dir / f"{t[0]}.yaml").exists()]
     skipped = sorted({t[0] for t in TASKS} - {t[0] for t in tasks})
+    listeners = [SimTruth()]  # the simulator's truth beside each run's own verdict
     if contact == "oracle":
-        from runtime.sim_oracle import GroundTruthGraspStages
+        from runtime.sim_truth.oracle import GroundTruthGraspStages
 
-        stages = GroundTruthGraspStages()
+        stages = GroundTruthGraspStages(listeners=listeners)
     else:
-        stages = PipelineStages()  # backends built once, like a long-running runtime
+        stages = PipelineStages(listeners=listeners)  # backends built once, like a long-running runtime
     results = []
     for i in range(count):
         scene, instruction = tasks[i % len(tasks)]
@@ -135,6 +139,7 @@ def runs(count: int, out_dir: Path, contact: str) -> dict:
         with open_devices(profile) as devices, Runtime(profile, devices, stages, confirm="yes") as rt:
             result = rt.run(instruction, out_dir / f"run_{i:03d}")
         wall = time.perf_counter() - t0
+        truth = result.summary.sim_truth
         results.append(
             {
                 "scene": scene,
@@ -143,12 +148,10 @@ def runs(count: int, out_dir: Path, contact: str) -> dict:
                 "status": result.status.value,
                 "reason": result.reason,
                 "wall_s": wall,
-                "stage_seconds": result.summary.get("stage_seconds", {}),
+                "stage_seconds": result.summary.stage_seconds,
                 # where the target really ended vs the goal motion (simulator truth; verification cannot see it)
-                "true_goal_error_m": result.summary.get("sim_truth", {}).get("target_goal_error_m"),
-                "true_hinge_deg": max(
-                    (v for k, v in result.summary.get("sim_truth", {}).items() if k.endswith("[deg]")), default=None
-                ),
+                "true_goal_error_m": None if truth is None else truth.target_goal_error_m,
+                "true_hinge_deg": None if truth is None else max(truth.hinge_deg.values(), default=None),
             }
         )
         Console(stderr=True).print(
@@ -198,7 +201,7 @@ def main() -> None:
         choices=("pipeline", "oracle"),
         default="pipeline",
         help="pipeline: pipeline.contact, exactly as `goalvla run`; oracle: the simulator's ground-truth grasp "
-        "(runtime.sim_oracle), to measure everything else while contact is missing or under test",
+        "(runtime.sim_truth.oracle), to measure everything else while contact is missing or under test",
     )
     args = parser.parse_args()
     console = Console()

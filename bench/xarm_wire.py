@@ -242,7 +242,7 @@ def whole_runs(seeds: list[int], out_dir: Path) -> dict:
             args = ["run", "--config", str(profile), "--instruction", INSTRUCTION, "--yes", "--seed", str(seed)]
             t0 = time.perf_counter()
             done = subprocess.run(
-                [sys.executable, "-m", "runtime.cli", *args, "--record", str(out_dir / f"{name}_{seed}")],
+                [sys.executable, "-m", "runtime.commands.cli", *args, "--record", str(out_dir / f"{name}_{seed}")],
                 cwd=REPO,
                 capture_output=True,
                 text=True,

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from itertools import pairwise
 from typing import Literal
 
 import numpy as np
@@ -69,9 +68,6 @@ class Planner:
         to fine, so a blocked line is usually rejected after a few checks)."""
         n = max(1, int(np.ceil(np.max(np.abs(qb - qa)) / self.config.resolution_rad)))
         return all(self.valid(qa + (qb - qa) * (k / n)) for k in coarse_to_fine(n))
-
-    def path_free(self, waypoints: np.ndarray) -> bool:
-        return all(self.segment_free(a, b) for a, b in pairwise(waypoints))
 
     def why_invalid(self, q: np.ndarray, what: str) -> str:
         low, high = q < self.limits.lower, q > self.limits.upper

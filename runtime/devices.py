@@ -16,6 +16,7 @@ import numpy as np
 
 from calibration.store import load_calibration
 from drivers.interfaces import Arm, Camera, Gripper
+from drivers.optional import missing_package
 from drivers.types import RGBDFrame
 from runtime.config import Profile
 
@@ -56,6 +57,16 @@ class Devices:
                 f"the arm carrying the camera moved {moved:.4f} rad while the frame was taken (still: <= {STILL_RAD})"
             )
         return frame.with_extrinsics(self.camera_pose(q_after))
+
+
+SDKS = {"xarm7": ("xarm", "xarm-python-sdk"), "femto_bolt": ("pyorbbecsdk", "pyorbbecsdk2")}  # kind -> (module, dist)
+
+
+def missing_device_packages(profile: Profile) -> list[str]:
+    """The SDKs the profile's robot and camera need that are not installed (checked at start-up)."""
+    kinds = (("robot.kind", profile.robot.kind), ("camera.kind", profile.camera.kind))
+    problems = (missing_package(*SDKS[kind], f"{key} {kind}") for key, kind in kinds if kind in SDKS)
+    return [p for p in problems if p is not None]
 
 
 def _sim_devices(profile: Profile) -> tuple[Camera, Arm, Gripper, object]:

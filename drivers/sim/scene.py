@@ -12,10 +12,10 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-import yaml
 from pydantic import Field, ValidationError
 
 from drivers.config import StrictModel
+from drivers.files import InputFileError, load_yaml
 
 COLORS: dict[str, tuple[float, float, float]] = {
     "red": (0.85, 0.12, 0.10),
@@ -88,11 +88,9 @@ class Scene(StrictModel):
 
 def load_scene(path: Path) -> Scene:
     try:
-        data = yaml.safe_load(Path(path).read_text())
-    except OSError as e:
-        raise SceneError(f"{path}: cannot read scene ({e.strerror})") from None
-    except yaml.YAMLError as e:
-        raise SceneError(f"{path}: invalid YAML ({e})") from None
+        data = load_yaml(Path(path), "scene")
+    except InputFileError as e:
+        raise SceneError(str(e)) from None
     try:
         scene = Scene.model_validate(data)
     except ValidationError as e:

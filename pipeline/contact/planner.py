@@ -17,12 +17,13 @@ the plan then carries the object motion it realises (ContactPlan.T_motion).
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.contact.gripper import GripperBoxes
+from pipeline.contact.held import held_box
 from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
 from pipeline.contact.sampling import Candidate, estimate_normals, grasp_candidates, push_candidates
 from pipeline.contact.symmetry import revolution_axis, turn_deg
@@ -47,6 +48,7 @@ def plan_contacts(
     q_seed: np.ndarray | None = None,
     collision_world=None,
     viewpoint: np.ndarray | None = None,
+    object_name: str = "object",
 ) -> ContactResult:
     """Ranked contact plans for moving the object by T_base_motion (x_goal = T x_init, base frame).
 
@@ -55,7 +57,8 @@ def plan_contacts(
     target: IK solutions of the pre-contact, contact and arc poses must be collision-free in it with the fingers at
     the candidate's opening (the exact geometry the gate will judge the approach in), those of the goal pose free of
     self-collision, workspace and keep-out (at the goal the object is set down from above with a clearance, so
-    the scene there is the geometric filter's). viewpoint: camera position (for normals).
+    the scene there is the geometric filter's). viewpoint: camera position (for normals). object_name: names a
+    grasped object's held box (ContactPlan.held) in the gate's reports.
     """
     cfg = config or ContactConfig()
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
@@ -102,12 +105,12 @@ def plan_contacts(
     )
     plans = []
     seed = robot.home_q if q_seed is None else np.asarray(q_seed, dtype=np.float64)
+    placing = _Placing(pts, object_name, robot.tcp_frame)
     for c in geometric[: cfg.ik_candidates]:
-        plan = _reachable_plan(c, cfg, robot, seed, motions, goal_check, collision_world)
-        if isinstance(plan, str):
-            rejected[plan] += 1
-        else:
-            plans.append(plan)
+        try:
+            plans.append(_reachable_plan(c, cfg, robot, seed, motions, goal_check, collision_world, placing))
+        except _Unreachable as e:
+            rejected[e.reason] += 1
         if len(plans) == cfg.keep:
             break
     rejected["not checked for reachability (enough plans)"] += max(0, len(geometric) - cfg.ik_candidates)
@@ -202,6 +205,23 @@ def _half_turn(c: Candidate) -> Candidate:
     )
 
 
+class _Unreachable(Exception):
+    """A candidate with no reachable plan; reason is the rejection it is counted under."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+@dataclass(frozen=True)
+class _Placing:
+    """What a grasp plan's held box is made of: the object's points, its name and the TCP link."""
+
+    points: np.ndarray
+    name: str
+    tcp_link: str
+
+
 def _reachable_plan(
     c: Candidate,
     cfg: ContactConfig,
@@ -210,21 +230,22 @@ def _reachable_plan(
     motions: list[np.ndarray],
     goal_check: _GoalCheck,
     world,
-) -> ContactPlan | str:
-    """The candidate's plan, from the first wrist twin and object motion whose poses all have IK; else why the
-    candidate as sampled (first twin, first motion) fails."""
+    placing: _Placing,
+) -> ContactPlan:
+    """The candidate's plan, from the first wrist twin and object motion whose poses all have IK; else _Unreachable
+    with why the candidate as sampled (first twin, first motion) fails."""
     accept, accept_goal = None, None
     if world is not None:
         width = _open_width(c, cfg, robot)
         accept = lambda q: not world.in_collision(q, width)  # noqa: E731
         accept_goal = lambda q: all(k.kind == "collision" for k in world.check(q, width))  # noqa: E731
-    first_reason = ""
+    first: _Unreachable | None = None
     for twin in (c, _half_turn(c)):
-        plan = _twin_plan(twin, cfg, robot, seed, motions, goal_check, accept, accept_goal)
-        if not isinstance(plan, str):
-            return plan
-        first_reason = first_reason or plan
-    return first_reason
+        try:
+            return _twin_plan(twin, cfg, robot, seed, motions, goal_check, accept, accept_goal, placing)
+        except _Unreachable as e:
+            first = first or e
+    raise first
 
 
 def _twin_plan(
@@ -236,38 +257,43 @@ def _twin_plan(
     goal_check: _GoalCheck,
     accept,
     accept_goal,
-) -> ContactPlan | str:
-    """The plan of this twin under the first motion whose goal passes the goal checks and has IK; else why not."""
+    placing: _Placing,
+) -> ContactPlan:
+    """The plan of this twin under the first motion whose goal passes the goal checks and has IK; else
+    _Unreachable."""
     T_pre = _pre_contact(c, cfg.pre_distance_m)
     qs = []
     arc = [(T, "arc") for T in c.via]
     for T, where in ((T_pre, "pre-contact"), (c.T_contact, "contact"), *arc):
         r = robot.ik(T, qs[-1] if qs else seed, settings=IK_SETTINGS, accept=accept)
         if not r.success:
-            return f"{where} pose out of reach"
+            raise _Unreachable(f"{where} pose out of reach")
         qs.append(r.q)
     lifts = cfg.place_lifts_m if c.mode == "grasp" else ()
     for k, M in enumerate(motions):
         T_goal = _goal(c, M)
         if goal_check.reason(c, T_goal, k):
             continue
-        q_goal = _goal_ik(robot, T_goal, lifts, qs[-1], accept_goal)
-        if q_goal is not None:
-            return _plan(c, cfg, robot, T_pre, T_goal, M, [*qs, q_goal])
-    return "goal pose out of reach"
+        goal = _goal_ik(robot, T_goal, lifts, qs[-1], accept_goal)
+        if goal is not None:
+            return _plan(c, cfg, robot, T_pre, M, qs, goal, placing)
+    raise _Unreachable("goal pose out of reach")
 
 
-def _goal_ik(robot: RobotModel, T_goal: np.ndarray, lifts: tuple[float, ...], q_from: np.ndarray, accept):
-    """IK of the goal pose, also of the poses `lifts` above it (each seeded by the last); None if one has none."""
-    qs = [q_from]
+def _goal_ik(
+    robot: RobotModel, T_goal: np.ndarray, lifts: tuple[float, ...], q_from: np.ndarray, accept
+) -> list[tuple[np.ndarray, np.ndarray]] | None:
+    """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last; None if one has
+    none."""
+    out = []
     for lift in (0.0, *lifts):
         T = T_goal.copy()
         T[2, 3] += lift
-        r = robot.ik(T, qs[-1], settings=IK_SETTINGS, accept=accept)
+        r = robot.ik(T, out[-1][1] if out else q_from, settings=IK_SETTINGS, accept=accept)
         if not r.success:
             return None
-        qs.append(r.q)
-    return qs[1]
+        out.append((T, r.q))
+    return out
 
 
 def _plan(
@@ -275,30 +301,38 @@ def _plan(
     cfg: ContactConfig,
     robot: RobotModel,
     T_pre: np.ndarray,
-    T_goal: np.ndarray,
     T_motion: np.ndarray,
     qs: list[np.ndarray],
+    goal: list[tuple[np.ndarray, np.ndarray]],
+    placing: _Placing,
 ) -> ContactPlan:
-    margin = min(float(np.min(np.minimum(q - robot.lower, robot.upper - q))) for q in qs)
+    """qs: the pre-contact, contact and arc joints; goal: (pose, joints) at the goal and the place lifts."""
+    (T_goal, q_goal), *place = goal
+    margin = min(float(np.min(np.minimum(q - robot.lower, robot.upper - q))) for q in [*qs, q_goal])
     reach = float(np.clip(margin / 0.5, 0.0, 1.0))
     scores = {"antipodal": c.antipodal, "centred": c.centred, "approach": c.approach, "reach": reach}
     w = cfg.weights
     total = sum(w[k] * v for k, v in scores.items()) / sum(w.values())
-    width = robot.spec.gripper.min_width_m if c.mode != "grasp" else max(0.0, c.object_width_m - cfg.squeeze_m)
-    q_pre, q_contact, *q_via, q_goal = qs
+    grasp = c.mode == "grasp"
+    width = robot.spec.gripper.min_width_m if not grasp else max(0.0, c.object_width_m - cfg.squeeze_m)
+    q_pre, q_contact, *q_via = qs
     return ContactPlan(
-        c.mode,
-        T_pre,
-        c.T_contact,
-        T_goal,
-        width,
-        c.object_width_m,
-        total,
-        scores,
-        q_pre,
-        q_contact,
-        q_goal,
-        c.via,
-        tuple(q_via),
-        T_motion,
+        mode=c.mode,
+        T_pre=T_pre,
+        T_contact=c.T_contact,
+        T_goal=T_goal,
+        T_motion=T_motion,
+        width_m=width,
+        open_width_m=_open_width(c, cfg, robot),
+        object_width_m=c.object_width_m,
+        q_pre=q_pre,
+        q_contact=q_contact,
+        q_goal=q_goal,
+        via=c.via,
+        q_via=tuple(q_via),
+        T_place=tuple(T for T, _ in place),
+        q_place=tuple(q for _, q in place),
+        held=held_box(placing.points, c.T_contact, tcp_link=placing.tcp_link, name=placing.name) if grasp else None,
+        score=total,
+        scores=scores,
     )

@@ -9,6 +9,7 @@ import numpy as np
 from pydantic import Field
 
 from drivers.config import StrictModel
+from safety.geometry import Primitive
 
 ContactMode = Literal["grasp", "push", "hinge"]
 
@@ -16,8 +17,8 @@ ContactMode = Literal["grasp", "push", "hinge"]
 class ContactConfig(StrictModel):
     """Sampling, filtering and scoring of contact poses (lengths in metres, angles in degrees)."""
 
-    yaw_step_deg: float = Field(default=15.0, gt=0, description="closing-axis step of the grasp sweep")
-    side_approach_deg: tuple[float, ...] = (-30.0, 0.0, 30.0)
+    yaw_step_deg: float = Field(default=15.0, ge=1, le=90, description="closing-axis step of the grasp sweep")
+    side_approach_deg: tuple[float, ...] = Field(default=(-30.0, 0.0, 30.0), max_length=12)
     finger_clearance_m: float = Field(default=0.008, ge=0, description="free gap kept each side when opening")
     squeeze_m: float = Field(default=0.02, ge=0, description="commanded width below the object's width")
     grasp_depth_m: float = Field(default=0.04, gt=0, description="how far the TCP goes below the object top")
@@ -28,7 +29,7 @@ class ContactConfig(StrictModel):
     hinge_contact_fraction: float = Field(
         default=0.8, gt=0, le=1, description="arc push: contact this far out from the hinge, part extent = 1"
     )
-    hinge_step_deg: float = Field(default=10.0, gt=0, description="arc push: largest turn between via poses")
+    hinge_step_deg: float = Field(default=10.0, ge=1, le=45, description="arc push: largest turn between via poses")
     hinge_approach_deg: float = Field(
         default=25.0, ge=0, le=90, description="arc push: approach line's slant off the part's face, 0 = along it"
     )
@@ -39,36 +40,48 @@ class ContactConfig(StrictModel):
     hinge_min_turn_deg: float = Field(default=5.0, ge=0, description="hinge motion: smallest turn worth a push")
     collision_padding_m: float = Field(default=0.005, ge=0)
     place_lifts_m: tuple[float, ...] = Field(
-        default=(), description="grasp: heights above the goal pose the gripper passes setting the object down"
+        default=(),
+        max_length=10,
+        description="grasp: heights above the goal pose the gripper passes setting the object down",
     )
     placed_clearance_m: float = Field(default=0.004, ge=0, description="moved object vs other scene points")
-    ik_candidates: int = Field(default=12, ge=1, description="best geometric candidates checked for reachability")
-    keep: int = Field(default=5, ge=1, description="reachable plans returned")
+    ik_candidates: int = Field(
+        default=12, ge=1, le=200, description="best geometric candidates checked for reachability"
+    )
+    keep: int = Field(default=5, ge=1, le=50, description="reachable plans returned")
     weights: dict[str, float] = Field(
         default_factory=lambda: {"antipodal": 1.0, "centred": 0.7, "approach": 0.5, "reach": 0.5}
     )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ContactPlan:
-    """One contact decision, TCP poses in the base frame (TCP z = approach direction, y = closing axis)."""
+    """One contact decision, from contact planning to execution: TCP poses in the base frame (TCP z = approach
+    direction, y = closing axis) and the joints they were solved with in the gate's scene, which the manipulation
+    plans from and checks in each phase's world instead of solving them again."""
 
     mode: ContactMode
-    T_pre: np.ndarray
-    T_contact: np.ndarray
+    T_pre: np.ndarray  # approach start
+    T_contact: np.ndarray  # grasp pose, or where the push starts
     T_goal: np.ndarray  # T_contact carried by the object motion (grasp, push); the arc's end (hinge)
+    # the object motion the plan realises (x_goal = T x_init, base frame): the one asked for, or for a body of
+    # revolution that goal turned about the body's own axis (the same to the eye)
+    T_motion: np.ndarray
     width_m: float  # finger gap to command at contact (grasp: below the object's width; push: closed)
+    open_width_m: float  # finger gap on the approach and at the pre-contact and contact poses (IK checked at it)
     object_width_m: float  # measured gap the object needs between the fingers (0 for pushes)
-    score: float
-    scores: dict[str, float]
-    q_pre: np.ndarray | None = None
-    q_contact: np.ndarray | None = None
-    q_goal: np.ndarray | None = None
+    q_pre: np.ndarray
+    q_contact: np.ndarray
+    q_goal: np.ndarray
     via: tuple[np.ndarray, ...] = ()  # TCP poses between contact and goal, in order (hinge: along the arc)
     q_via: tuple[np.ndarray, ...] = ()
-    # the object motion the plan realises: the one asked for, or for a body of revolution that goal turned about
-    # the body's own axis (the same to the eye); None: T_goal T_contact^-1
-    T_motion: np.ndarray | None = None
+    # grasp: the poses above T_goal the object is set down from (ContactConfig.place_lifts_m), lowest first
+    T_place: tuple[np.ndarray, ...] = ()
+    q_place: tuple[np.ndarray, ...] = ()
+    held: Primitive | None = None  # grasp: the object's geometry in the TCP frame once grasped
+    score: float = 0.0
+    scores: dict[str, float] = field(default_factory=dict)
+    source: str = "pipeline.contact"  # who decided (for the record), e.g. "pipeline.contact #1 score 0.82"
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,10 @@ HINGE_EDGE_PERCENTILE = 5  # the hinge is the attached band's edge towards the a
 COARSE_STEP_DEG, FINE_STEP_DEG, FINE_SPAN_DEG = 5.0, 0.25, 5.0
 
 
+class HingeNotFound(ValueError):
+    """The part does not meet its anchor along a line; the message says how it falls short."""
+
+
 @dataclass(frozen=True)
 class Hinge:
     """A line in the camera frame: points p + s * axis (axis unit length), and the part points on it."""
@@ -41,21 +45,21 @@ class Hinge:
         return Similarity(1.0, T[:3, :3], T[:3, 3])
 
 
-def find_hinge(part: np.ndarray, anchor: np.ndarray, attach_m: float = ATTACH_M) -> Hinge | str:
-    """The hinge line of `part` (N, 3) on `anchor` (M, 3), or the reason none is found."""
+def find_hinge(part: np.ndarray, anchor: np.ndarray, attach_m: float = ATTACH_M) -> Hinge:
+    """The hinge line of `part` (N, 3) on `anchor` (M, 3); HingeNotFound says why there is none."""
     if len(part) == 0 or len(anchor) == 0:
-        return "the part or its anchor has no 3D points"
+        raise HingeNotFound("the part or its anchor has no 3D points")
     d, _ = cKDTree(anchor).query(part, distance_upper_bound=attach_m)
     attached = part[np.isfinite(d)]
     if len(attached) < MIN_ATTACH_POINTS:
-        return (
+        raise HingeNotFound(
             f"the part does not meet its anchor: {len(attached)} of its points lie within {attach_m * 1000:.0f} mm "
             f"of it (need {MIN_ATTACH_POINTS})"
         )
     centre = attached.mean(axis=0)
     _, spread, axes = np.linalg.svd(attached - centre, full_matrices=False)
     if spread[1] > 0 and spread[0] / spread[1] < MIN_ELONGATION:
-        return (
+        raise HingeNotFound(
             f"where the part meets its anchor is no line (extents {spread[0] / np.sqrt(len(attached)) * 1000:.0f} "
             f"and {spread[1] / np.sqrt(len(attached)) * 1000:.0f} mm): no hinge to turn about"
         )

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from pipeline.grounding.articulation import best_turn, find_hinge
+from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
 from pipeline.grounding.hypotheses import face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
@@ -151,9 +151,10 @@ def _ground_hinged(
     common: dict,
 ) -> ObjectMotion:
     """The turn of a hinged part about the line where it meets its anchor (pipeline.grounding.articulation)."""
-    hinge = find_hinge(points0[valid0], points0[inp.anchor0 & np.isfinite(points0[..., 2])])
-    if isinstance(hinge, str):
-        return refuse(f"hinged target: {hinge}", **common)
+    try:
+        hinge = find_hinge(points0[valid0], points0[inp.anchor0 & np.isfinite(points0[..., 2])])
+    except HingeNotFound as e:
+        return refuse(f"hinged target: {e}", **common)
     cloud0, cloud1 = points0[valid0], points1[valid1]
     angle, agreement = best_turn(hinge, cloud0, cloud1, inp.mask0, inp.mask1, inp.intrinsics)
     motion = hinge.turn(angle)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.config import DepthAnythingConfig
+from pipeline.perception.config import DepthAnythingConfig
 from pipeline.perception.depth import DepthEstimator, RelativeDepth
 from pipeline.perception.segmenter import check_rgb
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.config import GroundedSamConfig
+from pipeline.perception.config import GroundedSamConfig
 from pipeline.perception.segmenter import Detection, Segmenter, box_of, check_rgb
 
 DUPLICATE_IOU = 0.7

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.perception.features import normalise_rows
+from pipeline.perception.descriptors import normalise_rows
 
 RING_SAMPLES = 8
 MAX_SUPPORT_POINTS = 3000

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from drivers.optional import missing_package
 from pipeline.config import PipelineConfig
 from pipeline.perception.depth import DepthEstimator, OfflineDepthEstimator
 from pipeline.perception.offline_segmenter import OfflineSegmenter
@@ -10,9 +11,39 @@ from pipeline.reasoning.interfaces import ImageEditor, TextVLM
 from pipeline.reasoning.providers import MissingApiKeyError, api_key
 from pipeline.reasoning.reasoner import Reasoner
 
+MODEL_PACKAGES = (("torch", "torch"), ("transformers", "transformers"))
+PACKAGES = {  # backend -> (import, distribution) it needs
+    "gemini": (("google.genai", "google-genai"),),
+    "openai": (("openai", "openai"),),
+    "grounded_sam": MODEL_PACKAGES,
+    "depth_anything": MODEL_PACKAGES,
+    "dinov2": MODEL_PACKAGES,
+}
+
 
 def preflight(config: PipelineConfig) -> list[str]:
-    """Problems that would stop `build_reasoner` (missing API keys), without building anything."""
+    """Problems that would stop the pipeline (missing API keys, missing packages of the backends the profile
+    names), found without building anything."""
+    return missing_api_keys(config) + missing_packages(config)
+
+
+def missing_packages(config: PipelineConfig) -> list[str]:
+    steps = (
+        ("editor", config.editor),
+        ("vlm", config.vlm),
+        ("segmenter", config.segmenter),
+        ("depth", config.depth),
+        ("features", config.features),
+    )
+    problems = (
+        missing_package(module, dist, f"pipeline.{step} = {backend}")
+        for step, backend in steps
+        for module, dist in PACKAGES.get(backend, ())
+    )
+    return [p for p in problems if p is not None]
+
+
+def missing_api_keys(config: PipelineConfig) -> list[str]:
     problems = []
     for step, backend in (("editor", config.editor), ("vlm", config.vlm)):
         if backend in ("gemini", "openai"):
@@ -70,7 +101,7 @@ def _vlm(config: PipelineConfig, segmenter: Segmenter) -> TextVLM:
 
 def build_reasoner(config: PipelineConfig) -> Reasoner:
     """The configured Reasoner. Raises MissingApiKeyError (all missing keys named) before building anything."""
-    problems = preflight(config)
+    problems = missing_api_keys(config)
     if problems:
         raise MissingApiKeyError("cannot start goal reasoning:\n  " + "\n  ".join(problems))
     segmenter = build_segmenter(config)

@@ -19,7 +19,7 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt, median_filter
 
 from drivers.types import CameraIntrinsics
-from pipeline.grounding.articulation import find_hinge
+from pipeline.grounding.articulation import HingeNotFound, find_hinge
 from pipeline.perception.depth import OfflineDepthEstimator, RelativeDepth
 from pipeline.perception.segmenter import SegmentationError, Segmenter
 from pipeline.reasoning.checks import grow
@@ -123,9 +123,10 @@ class OfflineEditor(ImageEditor):
         plane = fit_table_plane(cloud)
         lid, _ = object_points(depth_m, K, mask_lid)
         box, _ = object_points(depth_m, K, mask_box)
-        hinge = find_hinge(lid, box)
-        if isinstance(hinge, str):
-            raise _refuse(f"'{phrase}': {hinge}")
+        try:
+            hinge = find_hinge(lid, box)
+        except HingeNotFound as e:
+            raise _refuse(f"'{phrase}': {e}") from e
         closed = plane.in_plane(footprint(box, plane).centre - hinge.point)  # from the hinge over the box
         closed -= (closed @ hinge.axis) * hinge.axis
         now = lid.mean(axis=0) - hinge.point

@@ -6,8 +6,8 @@ from rich.console import Console
 from typer.testing import CliRunner
 
 from calibration.board import load_board
-from runtime.calibrate import run_hand_eye
-from runtime.cli import app
+from runtime.commands.calibrate import run_hand_eye
+from runtime.commands.cli import app
 
 runner = CliRunner()
 

@@ -23,7 +23,7 @@ from calibration.session import (
 from drivers.sim import SimArm, SimCamera, SimWorld, SteppedClock
 from motion.executor import ExecutorConfig
 from motion.limits import MotionLimits
-from runtime.calibrate import pose_error, sim_overrides
+from runtime.commands.calibrate import pose_error, sim_overrides
 from safety.collision import CollisionWorld
 from safety.robot_model import RobotModel
 

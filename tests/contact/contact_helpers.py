@@ -4,22 +4,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.contact.clouds import target_and_scene
-
-HAND_REGION_M = 0.07  # as runtime.manipulation: scene points this close to the TCP at capture are the hand's
+from pipeline.contact.clouds import scene_clouds
 
 
 def clouds(world, camera, robot, name: str, body: str | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(target points, scene points without the target or the hand, camera position), base frame, from one capture.
+    """(target points, scene points without the target or the hand, camera position), base frame, from one capture
+    (the run's own cloud builder, at 5 mm voxels).
 
     The target is the scene object `name`, or only its part `body` (a MuJoCo body, e.g. a lid) when given.
     """
     frame = camera.read().with_extrinsics(camera.T_base_camera)
     q = world.data.qpos[world.arm_qpos].copy()
     mask = camera.object_masks()[name] if body is None else camera.body_mask(body)
-    target, scene = target_and_scene(frame, mask, robot, q)
-    scene = scene[np.linalg.norm(scene - robot.tcp_pose(q)[:3, 3], axis=1) > HAND_REGION_M]
-    return target, scene, frame.T_base_camera[:3, 3]
+    built = scene_clouds(frame, mask, robot, q, voxel_m=0.005)
+    return built.target, built.scene, frame.T_base_camera[:3, 3]
 
 
 def hinge_angle(world, joint: str) -> float:

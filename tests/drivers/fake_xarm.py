@@ -36,7 +36,8 @@ class FakeXArmAPI:
         self.report_callbacks: list = []
         self.report_hz = 100.0  # 0: the report link is silent
         self._reporter: threading.Thread | None = None
-        self.report_tick = threading.Event()  # set after each pass of the report loop
+        self._ticks = 0  # report periods gone by (a report delivered, or silence)
+        self._ticked = threading.Condition()
 
     # -- helpers ------------------------------------------------------------------------------------------
     def _call(self, name: str, *args: Any, **kwargs: Any) -> int:
@@ -81,8 +82,17 @@ class FakeXArmAPI:
             if self.report_hz > 0:
                 for callback in list(self.report_callbacks):
                     callback({"joints": list(self.angles), "state": self.state})
-            self.report_tick.set()
-            time.sleep(1.0 / self.report_hz if self.report_hz > 0 else 0.01)
+            with self._ticked:
+                self._ticks += 1
+                self._ticked.notify_all()
+            time.sleep(1.0 / self.report_hz if self.report_hz > 0 else 0.01)  # the report period
+
+    def wait_reports(self, n: int, timeout_s: float = 2.0) -> bool:
+        """Block until n more report periods have gone by (each delivered its report to the callbacks, or was
+        silent); False on timeout."""
+        with self._ticked:
+            target = self._ticks + n
+            return self._ticked.wait_for(lambda: self._ticks >= target, timeout_s)
 
     def register_report_callback(self, callback=None, **kwargs: Any) -> bool:
         self.calls.append(("register_report_callback", (callback,), kwargs))

@@ -15,9 +15,9 @@ from calibration.store import HandEyeCalibration, save_calibration
 from drivers.femto_bolt import FemtoBolt
 from drivers.femto_bolt import camera as femto_camera
 from drivers.xarm7 import XArm7
+from runtime.commands.doctor import render, run_checks, run_doctor
+from runtime.commands.doctor_checks import check_packages, pinned_versions
 from runtime.config import load_profile
-from runtime.doctor import render, run_checks, run_doctor
-from runtime.doctor_checks import check_packages, pinned_versions
 
 PERIOD_US = 33_333
 

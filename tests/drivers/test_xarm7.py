@@ -94,8 +94,7 @@ def test_servo_converts_radians_to_degrees_and_state_back(fakes):
     assert name == "set_servo_angle_j" and kwargs == {"is_radian": False}
     assert args[0] == pytest.approx(np.degrees(q).tolist())
     on_report = api.report_callbacks.pop()  # the test delivers the reports from here on
-    api.report_tick.clear()
-    assert api.report_tick.wait(1.0)  # a report pass that started before the pop has finished
+    assert api.wait_reports(1)  # a report pass that started before the pop has finished
     step = np.full(7, math.radians(0.1))
     on_report({"joints": np.degrees(q).tolist(), "state": 1})
     on_report({"joints": np.degrees(q + step).tolist(), "state": 1})
@@ -312,12 +311,12 @@ def test_state_stamp_is_the_report_time_so_a_silent_report_link_shows(fakes):
     arm = make_arm(fakes)
     arm.connect()
     api = fakes[0]
-    time.sleep(0.05)
+    assert api.wait_reports(3)
     first = arm.read_state().stamp_s
-    time.sleep(0.05)
+    assert api.wait_reports(2)
     assert arm.read_state().stamp_s > first and arm.report_count >= 5
     api.report_hz = 0  # the report socket goes quiet while commands still work
-    time.sleep(0.05)
+    assert api.wait_reports(2)  # (a report under way when it went quiet has arrived)
     frozen = arm.read_state().stamp_s
-    time.sleep(0.05)
+    assert api.wait_reports(3)
     assert arm.read_state().stamp_s == frozen

@@ -20,10 +20,10 @@ from calibration.store import load_calibration
 from drivers.sim.world import camera_mount_pose
 from drivers.xarm7.emulator import cell
 from drivers.xarm7.emulator.wire import Register
-from runtime.calibrate import pose_error, run_hand_eye
-from runtime.cli import app
+from runtime.commands.calibrate import pose_error, run_hand_eye
+from runtime.commands.cli import app
+from runtime.commands.doctor import device_factories, run_checks
 from runtime.config import load_profile
-from runtime.doctor import device_factories, run_checks
 
 EMULATED = "configs/emulated.yaml"
 ARM_ITEMS = ("arm reachable", "state reports", "firmware version", "errors and warnings", "mode and state",

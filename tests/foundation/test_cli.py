@@ -8,14 +8,17 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from runtime.cli import app
+from runtime.commands.cli import app
 
 runner = CliRunner()
 
 
 def test_help_lists_commands_and_starts_fast():
     done = subprocess.run(
-        [sys.executable, "-X", "importtime", "-m", "runtime.cli", "--help"], capture_output=True, text=True, timeout=60
+        [sys.executable, "-X", "importtime", "-m", "runtime.commands.cli", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert done.returncode == 0 and "capture" in done.stdout and "demo" in done.stdout
     heavy = [m for m in ("mujoco", "torch", "pinocchio", "open3d") if f" {m}\n" in done.stderr]

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.perception.features import best_matches, make_feature_extractor, normalise_rows, sample_bilinear
+from pipeline.perception.descriptors import normalise_rows, sample_bilinear
+from pipeline.perception.features import best_matches, make_feature_extractor
 
 
 def test_chunked_matches_equal_brute_force():

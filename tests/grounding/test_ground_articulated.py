@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.articulation import find_hinge
+from pipeline.grounding.articulation import HingeNotFound, find_hinge
 from pipeline.grounding.ground import ground
 from pipeline.grounding.sim_pairs import _relative_prediction
 from pipeline.grounding.types import GroundingInput
@@ -22,7 +23,6 @@ def test_hinge_is_the_edge_where_the_part_meets_its_anchor():
     lid = plate(0.16, 0.12)
     wall_top = np.column_stack([np.zeros(60), np.linspace(-0.08, 0.08, 60), np.full(60, -0.004)])
     hinge = find_hinge(lid, wall_top)
-    assert not isinstance(hinge, str), hinge
     assert abs(abs(hinge.axis[1]) - 1.0) < 1e-3  # along the wall
     assert abs(hinge.point[2]) < 0.003 and abs(hinge.point[0]) < 1e-6  # at the lid's bottom edge, not mid-band
     shut = hinge.turn(np.radians(90.0) * np.sign(hinge.axis[1])).apply(lid)  # right-handed about +y: z -> x
@@ -32,10 +32,13 @@ def test_hinge_is_the_edge_where_the_part_meets_its_anchor():
 def test_no_hinge_when_the_part_does_not_meet_its_anchor_along_a_line():
     lid = plate(0.16, 0.12)
     far = np.array([[0.3, 0.0, 0.0], [0.3, 0.01, 0.0]])
-    assert "does not meet its anchor" in find_hinge(lid, far)
+    with pytest.raises(HingeNotFound, match="does not meet its anchor"):
+        find_hinge(lid, far)
     corner = np.array([[0.0, 0.08, -0.003]])  # the anchor touches the lid at one corner only
-    assert "is no line" in find_hinge(plate(0.16, 0.12, step=0.002), corner)
-    assert "no 3D points" in find_hinge(lid, np.empty((0, 3)))
+    with pytest.raises(HingeNotFound, match="is no line"):
+        find_hinge(plate(0.16, 0.12, step=0.002), corner)
+    with pytest.raises(HingeNotFound, match="no 3D points"):
+        find_hinge(lid, np.empty((0, 3)))
 
 
 def test_lid_turn_is_recovered_from_the_rendered_views(lid_views):

@@ -9,7 +9,7 @@ import pytest
 from grounding_helpers import goal_pose
 from typer.testing import CliRunner
 
-from runtime.cli import app
+from runtime.commands.cli import app
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from tiny_transformers import save_tiny_depth_anything, save_tiny_grounding_dino, save_tiny_sam
 
-from pipeline.config import DepthAnythingConfig, GroundedSamConfig, PipelineConfig
+from pipeline.config import PipelineConfig
+from pipeline.perception.config import DepthAnythingConfig, GroundedSamConfig
 from pipeline.perception.depth_anything import DepthAnythingEstimator
 from pipeline.perception.grounded_sam import DUPLICATE_IOU, GroundedSamSegmenter
 from pipeline.reasoning.factory import build_depth, build_segmenter

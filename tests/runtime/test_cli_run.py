@@ -3,15 +3,14 @@ status (0 only for a verified DONE)."""
 
 from __future__ import annotations
 
-import json
-
 import pytest
 from runtime_helpers import free_port
 from typer.testing import CliRunner
 
-from runtime.cli import app
-from runtime.launch import EXIT_CODES
-from runtime.states import State
+from runtime.commands.cli import app
+from runtime.commands.launch import EXIT_CODES
+from runtime.run.summary import RunSummary
+from runtime.supervision.states import State
 
 runner = CliRunner()
 
@@ -28,15 +27,22 @@ def test_scene_on_a_hardware_profile_is_refused(sim_config_path):
 
 
 @pytest.mark.slow
-def test_a_run_writes_its_record_and_exits_by_status(sim_config_path, tmp_path):
+def test_a_verified_run_exits_0_with_its_record(sim_config_path, tmp_path):
     profile = tmp_path / "p.yaml"
     profile.write_text(f"include: {sim_config_path}\nruntime: {{zenoh: {{endpoint: tcp/127.0.0.1:{free_port()}}}}}\n")
     args = ["run", "--config", str(profile), "--instruction", "put the red block on the white plate", "--yes"]
     result = runner.invoke(app, [*args, "--seed", "4", "--record", str(tmp_path / "run")])
-    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
-    assert summary["seed"] == 4 and summary["instruction"] == "put the red block on the white plate"
-    assert result.exit_code == EXIT_CODES[State(summary["status"])], (result.output, summary["reason"])
+    summary = RunSummary.model_validate_json((tmp_path / "run" / "summary.json").read_text())
+    assert summary.seed == 4 and summary.instruction == "put the red block on the white plate"
+    assert summary.status == "DONE" and result.exit_code == 0, (result.output, summary.reason)
+    assert summary.verification.ok and summary.verification.comparison.position_error_m < 0.03
+    # the verdict is the world's: the simulator's truth (recorded on a sim profile, never used to decide) agrees
+    assert summary.sim_truth.target == "red_block" and summary.sim_truth.target_goal_error_m < 0.03
     assert (tmp_path / "run" / "report.html").exists() and (tmp_path / "run" / "capture.png").exists()
+
+
+def test_exit_codes_follow_the_status():
+    assert EXIT_CODES == {State.DONE: 0, State.FAILED: 1, State.ESTOPPED: 3}
 
 
 def test_missing_api_key_stops_before_any_device_opens(sim_config_path, tmp_path, monkeypatch):

@@ -8,11 +8,12 @@ import math
 import pytest
 from runtime_helpers import sim_run_profile
 
-from runtime.contact_adapter import contact_mode
 from runtime.devices import open_devices
-from runtime.runner import Runtime
-from runtime.stages import PipelineStages
-from runtime.states import State
+from runtime.run.contact import contact_mode
+from runtime.run.runner import Runtime
+from runtime.run.stages import PipelineStages
+from runtime.sim_truth.listener import SimTruth
+from runtime.supervision.states import State
 
 
 @pytest.mark.parametrize(
@@ -31,7 +32,8 @@ def test_the_instruction_picks_the_contact_mode(instruction, mode):
 @pytest.mark.slow
 def test_goalvla_run_closes_the_lid(sim_config_path, tmp_path):
     profile = sim_run_profile(sim_config_path, "close_lid", 100, "close_lid")
-    with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm="yes") as rt:
+    stages = PipelineStages(listeners=[SimTruth()])
+    with open_devices(profile) as devices, Runtime(profile, devices, stages, confirm="yes") as rt:
         world = devices.world
         box = world.object_pose("box")
         result = rt.run("close the blue box", tmp_path / "run")
@@ -39,10 +41,10 @@ def test_goalvla_run_closes_the_lid(sim_config_path, tmp_path):
             lid_deg = math.degrees(world.data.qpos[world.model.joint("box_hinge").qposadr[0]])
         moved = world.object_pose("box")[:3, 3] - box[:3, 3]
     assert result.status == State.DONE, result.reason
-    assert result.summary["plan"]["mode"] == "hinge"
-    assert result.summary["contact_used"].startswith("pipeline.contact #")
-    assert [e["status"] for e in result.summary["execution"]] == ["completed"] * 3
+    assert result.summary.plan.mode == "hinge"
+    assert result.summary.planning.contact_used.startswith("pipeline.contact #")
+    assert [e.status for e in result.summary.execution] == ["completed"] * 3
     assert lid_deg < 15.0, f"ground truth: the lid is still open {lid_deg:.0f} deg"
     assert max(abs(moved)) < 0.01  # the box itself stayed where it was
-    truth = result.summary["sim_truth"]  # the record's truth of a hinged part is its angle, not a centre's miss
-    assert truth["box_hinge [deg]"] == pytest.approx(lid_deg, abs=2.0) and "target_goal_error_m" not in truth
+    truth = result.summary.sim_truth  # the record's truth of a hinged part is its angle, not a centre's miss
+    assert truth.hinge_deg["box_hinge"] == pytest.approx(lid_deg, abs=2.0) and truth.target_goal_error_m is None

@@ -12,13 +12,13 @@ import pytest
 from runtime_helpers import free_port, wait_for
 from scripted_stages import ScriptedStages
 
+from runtime.commands.serve import serve
 from runtime.config import load_profile
-from runtime.console.server import ConsoleServer
 from runtime.devices import open_devices
-from runtime.runner import Runtime
-from runtime.serve import serve
-from runtime.sim_oracle import GroundTruthGraspStages
-from runtime.states import State
+from runtime.messaging.console.server import ConsoleServer
+from runtime.run.runner import Runtime
+from runtime.sim_truth.oracle import GroundTruthGraspStages
+from runtime.supervision.states import State
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 FLAGS = [
@@ -120,8 +120,7 @@ def test_posts_without_the_console_header_are_refused(rig):
 
 
 def test_a_real_pipeline_run_shows_every_picture(real_rig, page):
-    """Reasoning, grounding, planning, execution and verification for real (contact from runtime.sim_oracle)."""
-    pytest.importorskip("pipeline.grounding.ground", reason="the grounding stage is not part of this build")
+    """Reasoning, grounding, planning, execution and verification for real (contact from runtime.sim_truth.oracle)."""
     console = real_rig[3]
     page.goto(console.url)
     page.wait_for_selector("#conn.ok")

@@ -12,7 +12,7 @@ from calibration.store import HandEyeCalibration, save_calibration
 from drivers.sim.world import camera_mount_pose
 from drivers.types import JointState, RGBDFrame
 from runtime.devices import CaptureError, Devices, open_devices
-from runtime.stages import camera_moved
+from runtime.run.verification import camera_moved
 
 
 def table_height_m(frame: RGBDFrame) -> float:

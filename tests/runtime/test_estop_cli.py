@@ -9,8 +9,8 @@ import time
 import pytest
 from runtime_helpers import wait_for
 
-from runtime.bus import Bus
-from runtime.messages import EStop, Heartbeat
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import EStop, Heartbeat
 
 pytestmark = pytest.mark.slow
 
@@ -26,7 +26,7 @@ def test_terminal_node_beats_and_stops(runtime_cfg, tmp_path, sim_config_path):
         hub.subscribe(f"{hub.keys.heartbeat}/**", Heartbeat, lambda k, m: beats.append(time.monotonic()))
         hub.subscribe(hub.keys.estop, EStop, lambda k, m: stops.append(m))
         hub.watch_liveliness(f"{hub.keys.alive}/estop/**", lambda k, a: alive.append(a))
-        cmd = [sys.executable, "-m", "runtime.cli", "estop", "--config", str(profile), "--node", "pendant"]
+        cmd = [sys.executable, "-m", "runtime.commands.cli", "estop", "--config", str(profile), "--node", "pendant"]
         proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         try:
             assert wait_for(lambda: len(beats) > 25, 20)  # ~1 s of heartbeats once connected

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typer.testing import CliRunner
 
-from runtime.cli import app
-from runtime.estop_latch import EStopLatch
+from runtime.commands.cli import app
+from runtime.supervision.estop_latch import EStopLatch
 
 
 def test_latch_engages_reads_back_and_releases(tmp_path):

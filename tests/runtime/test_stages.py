@@ -3,18 +3,16 @@
 from __future__ import annotations
 
 import threading
-import types
 
 import numpy as np
 import pytest
 
-from runtime.context import RunContext, StageError
-from runtime.devices import open_devices
-from runtime.record import RunRecord
-from runtime.stages import PipelineStages
-
-pytest.importorskip("pipeline.grounding.ground", reason="the grounding stage is not part of this build")
 from pipeline.perception.depth import RelativeDepth
+from pipeline.reasoning.types import GoalState
+from runtime.devices import open_devices
+from runtime.run.context import RunContext, StageError
+from runtime.run.record import RunRecord
+from runtime.run.stages import PipelineStages
 
 
 @pytest.fixture
@@ -28,13 +26,22 @@ def test_implausible_grounding_is_refused_and_recorded(sim):
     profile, dev, frame, masks, record = sim
     # a "goal" in which the red block has turned into the blue block: no consistent rigid motion explains it
     depth = RelativeDepth(np.nan_to_num(frame.depth, nan=0.0).astype(np.float32), "depth")
-    goal = types.SimpleNamespace(
-        mask_init=masks["red_block"], mask_goal=masks["blue_block"], rgb_goal=frame.rgb, depth_goal=depth
+    goal = GoalState(
+        instruction="x",
+        prompt="x",
+        target="red block",
+        rgb_init=frame.rgb,
+        rgb_goal=frame.rgb,
+        mask_init=masks["red_block"],
+        mask_goal=masks["blue_block"],
+        depth_goal=depth,
+        iterations=(),
+        validated=True,
     )
     ctx = RunContext(profile, dev, "x", record, threading.Event(), frame0=frame, goal=goal)
     with pytest.raises(StageError, match=r"^grounding refused: "):
         PipelineStages().ground(ctx)
-    assert record.summary["object_motion"]["ok"] is False and ctx.motion is None
+    assert record.summary.object_motion.ok is False and ctx.motion is None
 
 
 def test_instruction_outside_the_grammar_fails_reasoning_with_the_grammar(sim):

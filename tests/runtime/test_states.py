@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from runtime.config import StateBudgets
-from runtime.states import SEQUENCE, State, StateMachine, TransitionError
+from runtime.supervision.states import SEQUENCE, State, StateMachine, TransitionError
 
 
 class Clock:

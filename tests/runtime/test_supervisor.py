@@ -7,12 +7,12 @@ import time
 import pytest
 from runtime_helpers import RecordingArm, wait_for
 
-from runtime.bus import Bus
 from runtime.config import StateBudgets
-from runtime.estop import EStopNode
-from runtime.messages import Command, JointStateMsg
-from runtime.states import State, StateMachine
-from runtime.supervisor import Supervisor
+from runtime.messaging.bus import Bus
+from runtime.messaging.messages import Command, JointStateMsg
+from runtime.supervision.estop import EStopNode
+from runtime.supervision.states import State, StateMachine
+from runtime.supervision.supervisor import Supervisor
 
 TO_EXECUTING = (State.CAPTURING, State.REASONING, State.GROUNDING, State.PLANNING, State.AWAITING_CONFIRM)
 
@@ -66,10 +66,14 @@ def test_frozen_node_trips_the_deadman_during_execution(rig):
 
 
 def test_frozen_node_outside_execution_does_not_stop(rig):
-    sup, machine, arm, node, _ = rig
+    sup, machine, arm, node, node_bus = rig
     machine.advance(State.CAPTURING)
     node.paused.set()
-    time.sleep(0.4)
+    assert wait_for(lambda: not sup.deadman_ok(), 2.0)
+    # the watch has judged the stale deadman since: each joint_state it publishes comes after a check
+    checks = []
+    node_bus.subscribe(node_bus.keys.joint_state, JointStateMsg, lambda k, m: checks.append(m))
+    assert wait_for(lambda: len(checks) >= 3, 2.0)
     assert machine.state == State.CAPTURING and not sup.deadman_ok()
     assert not arm.stopped.is_set()
 
@@ -115,7 +119,7 @@ def test_abort_command_and_telemetry_rate(rig):
     _sup, machine, arm, _node, node_bus = rig
     stamps = []
     node_bus.subscribe(node_bus.keys.joint_state, JointStateMsg, lambda k, m: stamps.append(time.monotonic()))
-    time.sleep(1.0)
+    assert wait_for(lambda: len(stamps) >= 51, 3.0)
     rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
     assert rate >= 45.0, f"joint_state at {rate:.1f} Hz"
     _to_executing(machine)

@@ -1,0 +1,116 @@
+"""The pieces a manipulation is chained from, for one robot, one control period and one scene.
+
+Each piece is motion's (IK goals, OMPL, Cartesian lines, Ruckig) or safety's (the gate); what this adds is one
+refusal type naming the piece that failed, with the cause kept.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from drivers.config import RobotConfig
+from motion.approval import ApprovedTrajectory, GateRefused, approve, gate_check
+from motion.cartesian import CartesianPathError, cartesian_path
+from motion.config import MotionConfig
+from motion.limits import MotionLimits
+from motion.planner import Planner, PlanningError
+from motion.segments import scaled_limits
+from motion.timing import TimingError, TrajectoryTimer
+from safety.collision import CollisionWorld
+from safety.config import SafetyConfig
+from safety.geometry import Primitive
+from safety.robot_model import RobotModel
+
+REACH_TOL_M, REACH_TOL_RAD = 1e-3, 1e-2  # the contact's joints must put the TCP this close to its pose
+
+
+class ManipulationRefused(RuntimeError):
+    """A phase of the manipulation cannot be planned or approved; the message names the piece and why."""
+
+
+class ManipulationChain:
+    """Motion pieces for one robot, one control period and one scene.
+
+    scene: the camera's obstacle points without the target (base frame); target: the target's points, an
+    obstacle until the hand reaches it. q_start: where the arm is; the plan starts there and ends at home.
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        *,
+        robot_config: RobotConfig,
+        safety: SafetyConfig,
+        motion: MotionConfig,
+        q_start: np.ndarray,
+        scene: np.ndarray,
+        target: np.ndarray,
+    ) -> None:
+        self.robot, self.safety, self.motion = robot, safety, motion
+        self.limits = scaled_limits(MotionLimits.from_config(safety, robot.spec), motion.speed_scale)
+        self.dt = 1.0 / robot_config.control_rate_hz
+        self.timer = TrajectoryTimer(
+            self.limits, self.dt, robot.joint_names, robot.tcp_positions, safety.max_tcp_speed_m_s
+        )
+        self.q0 = np.asarray(q_start, dtype=np.float64)
+        home = robot_config.home_q_rad
+        self.home = np.asarray(home if home is not None else robot.spec.home_q, dtype=np.float64)
+        self.scene_points = np.asarray(scene, dtype=np.float64).reshape(-1, 3)
+        self.target_points = np.asarray(target, dtype=np.float64).reshape(-1, 3)
+
+    def world(
+        self, width_m: float, held: Primitive | None = None, obstacle: np.ndarray | None = None
+    ) -> CollisionWorld:
+        """The scene without the target; `obstacle` adds points (the target where it stands, before contact)."""
+        points = self.scene_points
+        if obstacle is not None and len(obstacle):
+            points = np.vstack([points, obstacle])
+        return CollisionWorld(self.robot, self.safety, points=points, held=held, gripper_width_m=width_m)
+
+    def planner(self, world: CollisionWorld) -> Planner:
+        return Planner(world, self.limits, self.motion.planner_config())
+
+    def checked(self, planner: Planner, q: np.ndarray, T_base_tcp: np.ndarray, what: str) -> np.ndarray:
+        """The contact's own joints for the TCP pose T_base_tcp, if they reach it and are valid in this phase's
+        world (limits, collision); they are not solved again."""
+        q = np.asarray(q, dtype=np.float64)
+        T = self.robot.tcp_pose(q)
+        miss_m = float(np.linalg.norm(T[:3, 3] - T_base_tcp[:3, 3]))
+        turn = float(np.linalg.norm(Rotation.from_matrix(T[:3, :3].T @ T_base_tcp[:3, :3]).as_rotvec()))
+        if miss_m > REACH_TOL_M or turn > REACH_TOL_RAD:
+            raise ManipulationRefused(
+                f"{what}: the contact's joints put the TCP {miss_m * 1000:.1f} mm / {np.degrees(turn):.2f} deg off it"
+            )
+        if not planner.valid(q):
+            raise ManipulationRefused(planner.why_invalid(q, f"{what}: the contact's"))
+        return q
+
+    def line(self, planner: Planner, q: np.ndarray, T: np.ndarray, what: str) -> np.ndarray:
+        try:
+            return cartesian_path(planner, q, T)
+        except CartesianPathError as e:
+            raise ManipulationRefused(f"{what}: {e}") from e
+
+    def free(self, planner: Planner, qa: np.ndarray, qb: np.ndarray, what: str) -> np.ndarray:
+        try:
+            return planner.plan(qa, qb).waypoints
+        except PlanningError as e:
+            raise ManipulationRefused(f"{what}: {e}") from e
+
+    def approved(
+        self, steps: list, world: CollisionWorld, q_start: np.ndarray, what: str, free_move: bool = False
+    ) -> ApprovedTrajectory:
+        """Timed and approved by the gate. A free move (no contact in it) may blend through its waypoints, its
+        corners cut where that stays clear and kept only where the gate accepts the bent path; everything else
+        rests at each waypoint, on the checked lines."""
+        blend = free_move and self.motion.blend_free_moves
+        if blend:  # only paths with corners (a direct move has none, and cutting builds an inflated world)
+            steps = [self.planner(world).smooth(s) if isinstance(s, np.ndarray) and len(s) > 2 else s for s in steps]
+        try:
+            trajectory = self.timer.time(steps, blend=blend, check=gate_check(world, q_start) if blend else None)
+            return approve(trajectory, world, q_current=q_start)
+        except TimingError as e:
+            raise ManipulationRefused(f"{what}: timing failed: {e}") from e
+        except GateRefused as e:
+            raise ManipulationRefused(f"{what}: {e}") from e

@@ -1,0 +1,139 @@
+"""From a contact decision to gate-approved trajectories: the pick-and-place or push sequence, phase by phase.
+
+The safety gate checks a trajectory against one collision world, and the world changes during a manipulation
+(the object is an obstacle until the hand reaches it, then rides in the gripper, then stands somewhere new), so
+the sequence is cut where it changes and each phase is approved against its own world. The arm rests at every
+cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
+  grasp:  approach (free path to the pre-grasp pose; the object is an obstacle) -> grasp (straight in, close,
+          straight up) -> carry (object attached to the TCP: free path above the place pose, straight down, open)
+          -> retreat (straight up) -> home (the placed object is an obstacle)
+  push:   approach (free path, close the fingers) -> push (straight in, push along the motion, back up) -> home
+  hinge:  as push, the push following the via poses along the hinged part's arc (a Cartesian line between each
+          two), ending just off the turned part, whence straight up is away from it
+The free paths end at the joints contact planning solved (pre-contact, above the place), checked in each phase's
+world; the lines between them follow the TCP.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from motion.approval import ApprovedTrajectory
+from motion.goals import lifted
+from motion.manipulation.chain import ManipulationChain, ManipulationRefused
+from motion.manipulation.contact import Contact
+from motion.timing import GripperAction
+from safety.geometry import transform_points
+
+LIFT_M = 0.10  # straight up after grasping / after releasing
+PLACE_CLEARANCE_M = 0.015  # the object is released this far above its goal resting pose (beyond padding)
+CLOSE_S, OPEN_S = 1.0, 0.6  # the arm holds still while the gripper moves
+
+
+def place_heights(padding_m: float) -> tuple[float, float]:
+    """Heights above a grasp's goal pose of the release and of the pose above it (contact planning solves both):
+    the release clears the goal by the gate's padding and PLACE_CLEARANCE_M, the retreat rises LIFT_M."""
+    release = PLACE_CLEARANCE_M + padding_m
+    return release, release + LIFT_M
+
+
+@dataclass(frozen=True)
+class ManipulationPlan:
+    phases: tuple[ApprovedTrajectory, ...]
+    phase_names: tuple[str, ...]
+    contact: Contact
+    tcp_waypoints: dict[str, np.ndarray] = field(default_factory=dict)  # named TCP poses, for the operator's view
+
+    @property
+    def duration_s(self) -> float:
+        return float(sum(p.trajectory.duration_s for p in self.phases))
+
+    @property
+    def samples(self) -> int:
+        return int(sum(len(p.trajectory.positions) for p in self.phases))
+
+    @property
+    def peak_joint_speed_rad_s(self) -> list[float]:
+        peaks = [np.abs(p.trajectory.derivative(1)).max(axis=0) for p in self.phases]
+        return np.max(peaks, axis=0).tolist()
+
+
+def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
+    g = chain.robot.spec.gripper
+    if len(contact.T_place) != 2 or len(contact.q_place) != 2:
+        raise ManipulationRefused(
+            f"grasp: the contact carries {len(contact.T_place)} poses to set the object down from (need the "
+            "release and the pose above it, place_heights)"
+        )
+    (T_place, T_above), (_, q_above) = contact.T_place, contact.q_place
+    before = chain.world(g.max_width_m, obstacle=chain.target_points)  # the object is an obstacle until touched
+    before_planner = chain.planner(before)
+    q_pre = chain.checked(before_planner, contact.q_pre, contact.T_pre, "pre-grasp pose")
+    to_pre = chain.free(before_planner, chain.q0, q_pre, "path to the pre-grasp pose")
+    approach = chain.approved(
+        [to_pre, GripperAction("open", OPEN_S, contact.open_width_m)], before, chain.q0, "approach", free_move=True
+    )
+
+    touching = chain.world(contact.open_width_m)  # the approach ended opening the fingers: no wider down to it
+    planner = chain.planner(touching)
+    down = chain.line(planner, q_pre, contact.T_contact, "approach to the grasp")
+    lift = chain.line(planner, down[-1], lifted(contact.T_contact, LIFT_M), "lift after the grasp")
+    grasp = chain.approved([down, GripperAction("close", CLOSE_S, contact.width_m), lift], touching, q_pre, "grasp")
+
+    carry_world = chain.world(contact.width_m, held=contact.held)
+    carry_planner = chain.planner(carry_world)
+    q_above = chain.checked(carry_planner, q_above, T_above, "pose above the place")
+    to_above = chain.free(carry_planner, lift[-1], q_above, "carry path")
+    place = chain.line(carry_planner, q_above, T_place, "descent to the place pose")
+    release = GripperAction("open", OPEN_S, g.max_width_m)
+    carry = chain.approved([to_above, place, release], carry_world, lift[-1], "carry")
+
+    released = chain.world(g.max_width_m)
+    up = chain.line(chain.planner(released), place[-1], T_above, "retreat")
+    retreat = chain.approved([up], released, place[-1], "retreat")
+    home = _home(chain, contact, g.max_width_m, up[-1])
+    phases = (approach, grasp, carry, retreat, home)
+    waypoints = {"pre-grasp": contact.T_pre, "grasp": contact.T_contact, "place": T_place}
+    return ManipulationPlan(phases, ("approach", "grasp", "carry", "retreat", "home"), contact, waypoints)
+
+
+def plan_push(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
+    """A straight push, or a hinge push along the via poses of its arc."""
+    g = chain.robot.spec.gripper
+    before = chain.world(g.max_width_m, obstacle=chain.target_points)
+    before_planner = chain.planner(before)
+    q_pre = chain.checked(before_planner, contact.q_pre, contact.T_pre, "pre-push pose")
+    to_pre = chain.free(before_planner, chain.q0, q_pre, "path to the pre-push pose")
+    approach = chain.approved(
+        [to_pre, GripperAction("close", CLOSE_S, g.min_width_m)], before, chain.q0, "approach", free_move=True
+    )
+
+    touching = chain.world(g.min_width_m)
+    planner = chain.planner(touching)
+    path = [chain.line(planner, q_pre, contact.T_contact, "approach to the push")]
+    for k, T in enumerate((*contact.via, contact.T_goal), start=1):
+        what = f"push (arc pose {k} of {len(contact.via) + 1})" if contact.via else "push"
+        path.append(chain.line(planner, path[-1][-1], T, what))
+    back = chain.line(planner, path[-1][-1], lifted(contact.T_goal, LIFT_M), "retreat after the push")
+    pushing = chain.approved([*path, back], touching, q_pre, "push")
+    home = _home(chain, contact, g.min_width_m, back[-1])
+    arc = {f"arc {k}": T for k, T in enumerate(contact.via, start=1)}
+    waypoints = {"pre-push": contact.T_pre, "contact": contact.T_contact, **arc, "push end": contact.T_goal}
+    return ManipulationPlan((approach, pushing, home), ("approach", "push", "home"), contact, waypoints)
+
+
+def _home(chain: ManipulationChain, contact: Contact, width_m: float, q_start: np.ndarray) -> ApprovedTrajectory:
+    """Back to the home posture, with the object where it now is as an obstacle."""
+    world = chain.world(width_m, obstacle=transform_points(contact.T_motion, chain.target_points))
+    path = chain.free(chain.planner(world), q_start, chain.home, "path home")
+    return chain.approved([path], world, q_start, "home", free_move=True)
+
+
+def plan_manipulation(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
+    if contact.mode == "grasp":
+        return plan_grasp(chain, contact)
+    if contact.mode in ("push", "hinge"):
+        return plan_push(chain, contact)
+    raise ManipulationRefused(f"unknown contact mode {contact.mode!r}")

@@ -1,0 +1,79 @@
+"""The motion an object really made between two metric captures from one camera pose, measured for verification.
+
+It is measured the way grounding measured the goal's (a hinged part as a turn about its anchor), so the two can
+be compared. A ball is the exception: no turn of it shows, and a registration of its uniform surface may refuse
+or wander, so its fitted centre before and after is the whole measurement.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from drivers.types import RGBDFrame
+from pipeline.grounding.compare import Symmetry, object_centre, object_symmetry
+from pipeline.grounding.ground import ground
+from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
+from pipeline.perception.features import FeatureExtractor
+
+
+@dataclass(frozen=True)
+class AchievedMotion:
+    """x_after = R x_before + t of the object (camera frame), with what comparing it needs.
+
+    registration: grounding's result between the captures (None for a ball, measured by its centre alone);
+    symmetry: the turns the initial points say no image can show (None for a hinged part: its turn is judged).
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+    centre_camera: np.ndarray  # the object's seen centre in the first capture
+    symmetry: Symmetry | None
+    registration: ObjectMotion | None
+
+    @property
+    def ok(self) -> bool:
+        return self.registration is None or self.registration.ok
+
+    @property
+    def reason(self) -> str:
+        return "" if self.registration is None else self.registration.reason
+
+
+def _points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
+    return frame.intrinsics.unproject_depth_image(frame.depth)[mask & np.isfinite(frame.depth)]
+
+
+def measure_achieved(
+    *,
+    before: RGBDFrame,
+    mask_before: np.ndarray,
+    after: RGBDFrame,
+    mask_after: np.ndarray,
+    anchor_before: np.ndarray | None,
+    features: FeatureExtractor,
+    config: GroundingConfig,
+) -> AchievedMotion:
+    """The target's motion from `before` to `after` (same camera pose; masks of the target in each, and for a
+    hinged part the initial mask of what it is hinged to). A refused registration comes back with ok False."""
+    points = _points(before, mask_before)
+    symmetry = None if anchor_before is not None else object_symmetry(points)
+    centre = object_centre(points)
+    if symmetry is not None and symmetry.axis is None:
+        seen_after = object_symmetry(_points(after, mask_after))
+        if seen_after is not None and seen_after.axis is None:
+            return AchievedMotion(np.eye(3), seen_after.centre - symmetry.centre, centre, symmetry, None)
+    inp = GroundingInput(
+        rgb0=before.rgb,
+        depth0=before.depth,
+        mask0=mask_before,
+        rgb1=after.rgb,
+        depth1=after.depth,
+        depth1_kind="depth",
+        mask1=mask_after,
+        intrinsics=before.intrinsics,
+        anchor0=anchor_before,
+    )
+    motion = ground(inp, features, config, T_base_camera=before.T_base_camera)
+    return AchievedMotion(motion.R, motion.t, centre, symmetry, motion)

@@ -1,0 +1,160 @@
+"""Verification's arithmetic: an achieved motion compared with the goal's, and the symmetries no image can show.
+
+Both motions are measured the same way (grounding's registration, achieved.py) and compared where it matters:
+the object's centre, moved by each. The rotation difference is split, in the base frame, into tilt (how far the
+object's vertical axis is off) and twist (turn about the vertical), and each is judged only when the goal itself
+asks for that kind of rotation (at least INTENDED_DEG): the registration of a symmetric object (a cube, a
+cylinder) is free to pick any of its symmetric poses, so an unasked rotation is reported, never judged. A body of
+revolution (an upright can, a bottle) shows no turn about its own axis, so that turn is taken out first and its
+position is compared on the axis (the centroid of the seen side swings with the invisible turn); a ball shows no
+turn at all and is compared at its centre. Both are recognised from the initial points.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict
+from scipy.spatial.transform import Rotation
+
+from pipeline.contact.symmetry import TOLERANCE_REL, revolution_axis
+
+INTENDED_DEG = 10.0
+
+
+def rotation_deg(R: np.ndarray) -> float:
+    return float(np.degrees(Rotation.from_matrix(R).magnitude()))
+
+
+def twist_tilt_deg(R_base: np.ndarray) -> tuple[float, float]:
+    """(turn about the base z axis, tilt of the z axis) of a rotation in the base frame, degrees."""
+    _, _, z, w = Rotation.from_matrix(R_base).as_quat()
+    twist = abs(math.degrees(2 * math.atan2(z, w)))
+    twist = 360.0 - twist if twist > 180.0 else twist
+    tilt = math.degrees(math.acos(float(np.clip(R_base[2, 2], -1.0, 1.0))))
+    return twist, tilt
+
+
+@dataclass(frozen=True)
+class Symmetry:
+    """What the seen points say no registration can see: turns about `axis` (unit, camera frame) of a body of
+    revolution, or any turn of a ball (axis None). `centre` (camera frame, on the axis or the ball's centre) is
+    where positions are compared, since the seen side's centroid swings with the unseen turn."""
+
+    centre: np.ndarray
+    axis: np.ndarray | None
+
+
+def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
+    """The symmetry of the object whose seen points (N, 3) are given, or None (a box, a pan: every turn shows)."""
+    axis = revolution_axis(points_camera)
+    if axis is None:
+        return None
+    P = np.asarray(points_camera, dtype=np.float64)  # a ball: on one sphere, |x|^2 = 2 c.x + k
+    centre = np.linalg.lstsq(np.column_stack([2 * P, np.ones(len(P))]), (P**2).sum(axis=1), rcond=None)[0][:3]
+    radius = np.linalg.norm(P - centre, axis=1)
+    off = float(np.median(np.abs(radius - np.median(radius))))
+    if off <= TOLERANCE_REL * float(np.linalg.norm(np.ptp(P, axis=0))):
+        return Symmetry(centre, None)
+    return Symmetry(axis.point, axis.direction)
+
+
+def without_turn_about(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """R with its turn about `axis` taken out (the swing of a swing-twist split)."""
+    x, y, z, w = Rotation.from_matrix(R).as_quat()
+    along = (np.array([x, y, z]) @ axis) * axis
+    twist = np.array([*along, w])
+    norm = np.linalg.norm(twist)
+    twist = twist / norm if norm > 1e-12 else np.array([0.0, 0.0, 0.0, 1.0])
+    return (Rotation.from_quat([x, y, z, w]) * Rotation.from_quat(twist).inv()).as_matrix()
+
+
+def object_centre(points_camera: np.ndarray) -> np.ndarray:
+    """Centre of the visible object points (N, 3) in the camera frame, robust to stray edge pixels."""
+    return np.median(points_camera, axis=0)
+
+
+class Comparison(BaseModel):
+    """The verdict on an achieved motion, with every number it was judged by (errors, the goal's own turns, which
+    turns were judged, the tolerances)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    ok: bool
+    reason: str
+    position_error_m: float
+    rotation_error_deg: float
+    goal_translation_m: float
+    achieved_translation_m: float
+    goal_twist_deg: float
+    goal_tilt_deg: float
+    twist_error_deg: float
+    tilt_error_deg: float
+    twist_judged: bool
+    tilt_judged: bool
+    symmetry: Literal["none", "ball", "revolution"]
+    position_tol_m: float
+    rotation_tol_deg: float
+
+
+def compare(
+    *,
+    goal_R: np.ndarray,
+    goal_t: np.ndarray,
+    achieved_R: np.ndarray,
+    achieved_t: np.ndarray,
+    centre_camera: np.ndarray,
+    R_base_camera: np.ndarray,
+    position_tol_m: float,
+    rotation_tol_deg: float,
+    symmetry: Symmetry | None = None,
+) -> Comparison:
+    """Verdict from the goal and achieved motions (x' = R x + t, camera frame) of an object centred at centre;
+    with a symmetry, positions are compared at its centre and turns it hides are not judged."""
+    if symmetry is not None:
+        centre_camera = symmetry.centre
+    p_goal = goal_R @ centre_camera + goal_t
+    p_achieved = achieved_R @ centre_camera + achieved_t
+    position_error = float(np.linalg.norm(p_goal - p_achieved))
+    to_base = lambda R: R_base_camera @ R @ R_base_camera.T  # noqa: E731
+    goal_twist, goal_tilt = twist_tilt_deg(to_base(goal_R))
+    R_error = goal_R.T @ achieved_R  # acts on the object as first seen, where the symmetry axis was found
+    if symmetry is not None and symmetry.axis is not None:
+        R_error = without_turn_about(R_error, symmetry.axis)
+    twist_error, tilt_error = twist_tilt_deg(to_base(R_error))
+    turns_seen = symmetry is None or symmetry.axis is not None  # no turn of a ball shows
+    judge_twist, judge_tilt = turns_seen and goal_twist >= INTENDED_DEG, turns_seen and goal_tilt >= INTENDED_DEG
+    problems = []
+    if position_error > position_tol_m:
+        problems.append(
+            f"object centre {position_error * 1000:.0f} mm from the goal (tolerance {position_tol_m * 1000:.0f})"
+        )
+    if judge_tilt and tilt_error > rotation_tol_deg:
+        problems.append(f"object tilted {tilt_error:.1f} deg off the goal (tolerance {rotation_tol_deg:.0f})")
+    if judge_twist and twist_error > rotation_tol_deg:
+        problems.append(f"object turned {twist_error:.1f} deg off the goal (tolerance {rotation_tol_deg:.0f})")
+    reason = "; ".join(problems) or (
+        f"goal reached: centre within {position_error * 1000:.0f} mm"
+        + (f", tilt within {tilt_error:.1f} deg" if judge_tilt else "")
+        + (f", turn within {twist_error:.1f} deg" if judge_twist else "")
+    )
+    return Comparison(
+        ok=not problems,
+        reason=reason,
+        position_error_m=position_error,
+        rotation_error_deg=rotation_deg(goal_R.T @ achieved_R),
+        goal_translation_m=float(np.linalg.norm(p_goal - centre_camera)),
+        achieved_translation_m=float(np.linalg.norm(p_achieved - centre_camera)),
+        goal_twist_deg=goal_twist,
+        goal_tilt_deg=goal_tilt,
+        twist_error_deg=twist_error,
+        tilt_error_deg=tilt_error,
+        twist_judged=judge_twist,
+        tilt_judged=judge_tilt,
+        symmetry="none" if symmetry is None else ("ball" if symmetry.axis is None else "revolution"),
+        position_tol_m=position_tol_m,
+        rotation_tol_deg=rotation_tol_deg,
+    )

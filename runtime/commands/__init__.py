@@ -1,0 +1,1 @@
+"""The command-line commands: `goalvla` and the work behind each of its commands."""

@@ -1,0 +1,1 @@
+"""Messaging: the Zenoh bus, its message schemas and the operator console that speaks them."""

@@ -1,0 +1,176 @@
+"""summary.json: what one run decided, as one pydantic model with a versioned schema.
+
+Every stage fills its own section; the record writes the whole model when the run ends, so the file always has
+this shape (SCHEMA_VERSION, documented in the README). Bump SCHEMA_VERSION when a field changes meaning or goes.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from motion.report import ExecutionReport
+from pipeline.grounding.compare import Comparison
+from pipeline.grounding.types import ObjectMotion
+from runtime.messaging.messages import PlanSummary
+
+SCHEMA_VERSION = 1
+
+
+class Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+class ReasoningRecord(Section):
+    target: str
+    prompt: str
+    validated: bool
+    iterations: int
+    seconds: dict[str, float]
+
+
+class MotionRecord(Section):
+    """A grounded motion as `goalvla ground` writes it (x_goal = R x_init + t, camera frame), plus the base frame."""
+
+    ok: bool
+    reason: str
+    R: list[list[float]]
+    t: list[float]
+    scale: float
+    inliers: int
+    matches: int
+    confidence: float
+    residual_m: float | None
+    depth_residual_m: float | None
+    T_base_motion: list[list[float]] | None = None  # with a calibration, when ok
+    translation_base_m: list[float] | None = None
+
+    @classmethod
+    def of(cls, motion: ObjectMotion) -> MotionRecord:
+        T_base = motion.T_base if motion.ok and motion.T_base_camera is not None else None
+        return cls(
+            ok=motion.ok,
+            reason=motion.reason,
+            R=np.asarray(motion.R).tolist(),
+            t=np.asarray(motion.t).tolist(),
+            scale=float(motion.scale),
+            inliers=int(motion.inliers),
+            matches=int(motion.matches),
+            confidence=float(motion.confidence),
+            residual_m=_finite(motion.residual_m),
+            depth_residual_m=_finite(motion.depth_residual_m),
+            T_base_motion=None if T_base is None else T_base.tolist(),
+            translation_base_m=None if T_base is None else T_base[:3, 3].tolist(),
+        )
+
+
+class ContactRecord(Section):
+    mode: str
+    candidates: int
+    plans: int
+    rejected: dict[str, int]  # why candidates were ruled out, with how many each reason ruled out
+    # per ranked plan, how far its object motion turns from the grounded one (a body of revolution may be set down
+    # turned about its own axis, the same goal to the eye); 0 = as grounded
+    turn_from_grounded_deg: list[float]
+
+
+class PlanningRecord(Section):
+    contact_used: str | None = None  # the contact whose manipulation planned and passed the gate
+    refusals: list[str] = Field(default_factory=list)  # why the contacts tried before it could not be planned
+
+
+class ConfirmationRecord(Section):
+    source: str
+    approved: bool
+
+
+class GripperRecord(Section):
+    kind: str
+    width_m: float | None
+    grasped: bool | None
+
+
+class PhaseRecord(Section):
+    phase: str
+    status: str
+    reason: str
+    ticks: int
+    late_ticks: int
+    jitter_p99_s: float
+    max_tracking_error_rad: float
+    gripper: list[GripperRecord]
+
+    @classmethod
+    def of(cls, phase: str, report: ExecutionReport) -> PhaseRecord:
+        return cls(
+            phase=phase,
+            status=report.status,
+            reason=report.reason,
+            ticks=report.ticks,
+            late_ticks=report.late_ticks,
+            jitter_p99_s=report.jitter.p99_s,
+            max_tracking_error_rad=report.max_tracking_error_rad,
+            gripper=[GripperRecord(kind=g.event.kind, width_m=g.width_m, grasped=g.grasped) for g in report.gripper],
+        )
+
+
+class AchievedRecord(Section):
+    """How the achieved motion was measured: a registration between the captures, or a ball's centre shift."""
+
+    method: Literal["registration", "ball_centre"]
+    registration: MotionRecord | None = None
+    ball_centre_shift_m: list[float] | None = None
+
+
+class Verification(Section):
+    ok: bool
+    reason: str
+    comparison: Comparison | None = None  # absent when no achieved motion could be compared
+
+
+class SimTruthRecord(Section):
+    """The simulator's truth, for benchmarks only (never used to decide success)."""
+
+    object_displacement_m: dict[str, float]  # how far each object's centre moved
+    hinge_deg: dict[str, float]  # each hinge joint's angle after the run
+    target: str | None = None  # a whole object that was moved: the one that moved most
+    target_goal_error_m: float | None = None  # how far its centre ended from where the goal motion puts it
+
+
+class TransitionRecord(Section):
+    previous: str
+    state: str
+    reason: str
+    stamp_s: float
+
+
+class RunSummary(Section):
+    schema_version: Literal[1] = SCHEMA_VERSION
+    run_id: str
+    status: Literal["RUNNING", "DONE", "FAILED", "ESTOPPED"] = "RUNNING"
+    reason: str = ""
+    instruction: str = ""
+    profile: str = ""
+    robot_id: str = ""
+    scene: str | None = None  # sim profiles
+    seed: int | None = None
+    stage_seconds: dict[str, float] = Field(default_factory=dict)
+    reasoning: ReasoningRecord | None = None
+    object_motion: MotionRecord | None = None
+    contact: ContactRecord | None = None
+    planning: PlanningRecord | None = None
+    plan: PlanSummary | None = None
+    confirmation: ConfirmationRecord | None = None
+    execution: list[PhaseRecord] = Field(default_factory=list)
+    achieved_motion: AchievedRecord | None = None
+    verification: Verification | None = None
+    sim_truth: SimTruthRecord | None = None
+    wall_s: float | None = None
+    transitions: list[TransitionRecord] = Field(default_factory=list)
+    images: list[str] = Field(default_factory=list)  # <name>.png in the run folder

@@ -1,0 +1,67 @@
+"""The verification stage: capture again from the same camera pose, find the target, measure how it really moved
+(pipeline.grounding.achieved) and compare that with the goal's motion (pipeline.grounding.compare)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.types import RGBDFrame
+from pipeline.grounding.achieved import measure_achieved
+from pipeline.grounding.compare import compare, rotation_deg
+from pipeline.perception.features import FeatureExtractor
+from pipeline.perception.segmenter import Segmenter
+from runtime.run.context import RunContext
+from runtime.run.summary import AchievedRecord, MotionRecord, Verification
+
+CAMERA_STILL_MM, CAMERA_STILL_DEG = 2.0, 0.2  # verification needs both captures from one camera pose
+
+
+def camera_moved(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
+    """(mm, deg) between two camera poses."""
+    return 1000 * float(np.linalg.norm(T_a[:3, 3] - T_b[:3, 3])), rotation_deg(T_a[:3, :3].T @ T_b[:3, :3])
+
+
+def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features: FeatureExtractor) -> Verification:
+    """The verdict on the capture `after` execution against the goal; every measurement goes into the record."""
+    before, goal = ctx.frame0, ctx.goal
+    moved_mm, moved_deg = camera_moved(before.T_base_camera, after.T_base_camera)
+    if moved_mm > CAMERA_STILL_MM or moved_deg > CAMERA_STILL_DEG:
+        return Verification(
+            ok=False,
+            reason=f"the camera moved {moved_mm:.0f} mm / {moved_deg:.1f} deg between the captures: verification "
+            "compares two views from one pose (a camera on the arm must capture again where it first did)",
+        )
+    detections = segmenter.segment(after.rgb, goal.target)
+    if len(detections) != 1:
+        return Verification(ok=False, reason=f"target '{goal.target}' found {len(detections)} times after execution")
+    mask_after = detections[0].mask
+    ctx.record.image("mask_after", mask_after)
+    achieved = measure_achieved(
+        before=before,
+        mask_before=goal.mask_init,
+        after=after,
+        mask_after=mask_after,
+        anchor_before=goal.mask_anchor,  # a hinged part: measured as a turn about it, like its goal
+        features=features,
+        config=ctx.profile.pipeline.grounding,
+    )
+    if achieved.registration is None:
+        record = AchievedRecord(method="ball_centre", ball_centre_shift_m=achieved.t.tolist())
+    else:
+        record = AchievedRecord(method="registration", registration=MotionRecord.of(achieved.registration))
+    ctx.record.summary.achieved_motion = record
+    if not achieved.ok:
+        return Verification(ok=False, reason=f"could not measure the achieved motion: {achieved.reason}")
+    cfg = ctx.profile.runtime
+    comparison = compare(
+        goal_R=ctx.motion.R,
+        goal_t=ctx.motion.t,
+        achieved_R=achieved.R,
+        achieved_t=achieved.t,
+        centre_camera=achieved.centre_camera,
+        R_base_camera=before.T_base_camera[:3, :3],
+        position_tol_m=cfg.verify_position_tol_m,
+        rotation_tol_deg=cfg.verify_rotation_tol_deg,
+        symmetry=achieved.symmetry,
+    )
+    return Verification(ok=comparison.ok, reason=comparison.reason, comparison=comparison)

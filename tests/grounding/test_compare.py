@@ -1,0 +1,131 @@
+"""Verification's arithmetic: positions and turns judged against the goal, symmetries taken out first."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from pipeline.grounding.compare import Symmetry, compare, object_symmetry
+
+
+def yaw(deg: float) -> np.ndarray:
+    return Rotation.from_euler("z", deg, degrees=True).as_matrix()
+
+
+CAM = np.eye(3)  # camera frame == base frame in these cases: the base z axis is the camera's
+
+
+def judge(goal_R, goal_t, achieved_R, achieved_t, centre, R_base_camera=CAM, symmetry=None):
+    """compare() with a 3 cm / 15 deg tolerance."""
+    return compare(
+        goal_R=goal_R,
+        goal_t=goal_t,
+        achieved_R=achieved_R,
+        achieved_t=achieved_t,
+        centre_camera=centre,
+        R_base_camera=R_base_camera,
+        position_tol_m=0.03,
+        rotation_tol_deg=15.0,
+        symmetry=symmetry,
+    )
+
+
+def test_reached_goal_passes():
+    c = np.array([0.1, 0.0, 0.8])
+    v = judge(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.21, 0, 0]), c)
+    assert v.ok and v.position_error_m == pytest.approx(0.01)
+
+
+def test_position_off_by_more_than_the_tolerance_fails_with_the_numbers():
+    c = np.zeros(3)
+    v = judge(np.eye(3), np.array([0.2, 0, 0]), np.eye(3), np.array([0.15, 0, 0]), c)
+    assert not v.ok and "50 mm from the goal (tolerance 30)" in v.reason
+
+
+def about_centre(R: np.ndarray, c: np.ndarray) -> np.ndarray:
+    return c - R @ c
+
+
+def test_turn_is_judged_only_when_the_goal_turns():
+    c = np.array([0.0, 0.0, 0.8])
+    free = judge(np.eye(3), np.zeros(3), yaw(40), about_centre(yaw(40), c), c)
+    assert free.ok and free.twist_error_deg == pytest.approx(40) and not free.twist_judged
+    wrong = judge(yaw(90), about_centre(yaw(90), c), yaw(60), about_centre(yaw(60), c), c)
+    assert not wrong.ok and "turned 30.0 deg off" in wrong.reason
+
+
+def test_turns_a_symmetry_hides_are_not_judged():
+    c = np.array([0.0, 0.0, 0.8])
+    args = (yaw(90), about_centre(yaw(90), c), yaw(20), about_centre(yaw(20), c), c)
+    assert not judge(*args).ok
+    can = judge(
+        *args, symmetry=Symmetry(c, np.array([0.0, 0.0, 1.0]))
+    )  # upright: its turn about the vertical is unseen
+    assert can.ok and can.twist_error_deg == pytest.approx(0.0, abs=1e-6)
+    ball = judge(*args, symmetry=Symmetry(c, None))
+    assert ball.ok and not ball.twist_judged and ball.symmetry == "ball"
+
+
+def test_a_lying_bottle_stood_up_is_judged_on_its_tilt_not_its_spin():
+    c = np.array([0.0, 0.0, 0.8])
+    axis = np.array([1.0, 0.0, 0.0])  # the bottle lies along x
+    stand = Rotation.from_euler("y", 90, degrees=True).as_matrix()
+    spun = stand @ Rotation.from_rotvec(np.radians(40) * axis).as_matrix()  # the same, turned about its own axis
+    bottle = Symmetry(c, axis)
+    ok = judge(stand, about_centre(stand, c), spun, about_centre(spun, c), c, symmetry=bottle)
+    assert ok.ok and ok.tilt_error_deg == pytest.approx(0.0, abs=1e-6)
+    assert not judge(stand, about_centre(stand, c), spun, about_centre(spun, c), c).ok
+    half = Rotation.from_euler("y", 60, degrees=True).as_matrix()
+    short = judge(stand, about_centre(stand, c), half, about_centre(half, c), c, symmetry=bottle)
+    assert not short.ok and "tilted 30.0 deg" in short.reason
+
+
+def test_object_symmetry_finds_a_ball_an_upright_can_and_no_box():
+    rng = np.random.default_rng(0)
+    eye = np.zeros(3)  # camera frame: the camera at the origin looking along +z
+
+    def seen(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
+        """The points of a convex body facing the eye, with 0.8 mm depth-like noise."""
+        front = points[np.einsum("ij,ij->i", points - centre, eye - points) > 0]
+        return front + rng.normal(0, 0.0008, front.shape)
+
+    ball_centre = np.array([0.05, 0.02, 0.8])
+    ball = ball_centre + 0.032 * Rotation.random(4000, random_state=1).apply([1.0, 0.0, 0.0])
+    round_ = object_symmetry(seen(ball, ball_centre))
+    assert round_ is not None and round_.axis is None and np.linalg.norm(round_.centre - ball_centre) < 0.004
+    theta, h = rng.uniform(0, 2 * np.pi, 3000), rng.uniform(-0.055, 0.055, 3000)
+    can_centre = np.array([-0.1, 0.0, 0.9])
+    can = can_centre + np.column_stack([0.03 * np.cos(theta), h, 0.03 * np.sin(theta)])  # upright: along y
+    upright = object_symmetry(seen(can, can_centre))
+    assert upright is not None and abs(upright.axis[1]) > 0.99
+    assert np.linalg.norm((upright.centre - can_centre)[[0, 2]]) < 0.003
+    theta, x = rng.uniform(0, 2 * np.pi, 3000), rng.uniform(-0.09, 0.09, 3000)
+    bottle_centre = np.array([0.05, 0.1, 0.85])
+    bottle = bottle_centre + np.column_stack([x, 0.03 * np.cos(theta), 0.03 * np.sin(theta)])  # lying along x
+    lying = object_symmetry(seen(bottle, bottle_centre))
+    assert lying is not None and lying.axis is not None and abs(lying.axis[0]) > 0.99  # a cylinder, not a ball
+    u, v = rng.uniform(-0.025, 0.025, (2, 3000))
+    half = np.full_like(u, 0.025)
+    faces = np.concatenate(
+        [np.column_stack([u, v, half])]
+        + [np.column_stack([s * half, u, v]) for s in (1, -1)]
+        + [np.column_stack([u, s * half, v]) for s in (1, -1)]
+    )
+    cube_centre = np.array([0.0, 0.1, 0.7])
+    cube = Rotation.from_euler("xyz", [30, 20, 10], degrees=True).apply(faces) + cube_centre
+    assert object_symmetry(seen(cube, cube_centre)) is None
+
+
+def test_tilt_is_judged_when_the_goal_tilts_in_the_base_frame():
+    c = np.array([0.0, 0.0, 0.8])
+    tilt = Rotation.from_euler("x", 90, degrees=True).as_matrix()
+    half = Rotation.from_euler("x", 60, degrees=True).as_matrix()
+    v = judge(tilt, about_centre(tilt, c), half, about_centre(half, c), c)
+    assert not v.ok and "tilted 30.0 deg" in v.reason
+    unasked = judge(np.eye(3), np.zeros(3), tilt, about_centre(tilt, c), c)
+    assert unasked.ok and unasked.tilt_error_deg == pytest.approx(90)  # reported, not judged
+    # the same camera-frame rotation is a pure turn about the base vertical when camera x is the base vertical
+    R_base_camera = Rotation.from_euler("y", 90, degrees=True).as_matrix()
+    v = judge(tilt, about_centre(tilt, c), half, about_centre(half, c), c, R_base_camera)
+    assert not v.ok and "turned 30.0 deg" in v.reason and v.tilt_error_deg == pytest.approx(0, abs=1e-6)

@@ -1,0 +1,28 @@
+"""The contact stage in a whole run: a stand-up whose grounded turn about the bottle's own axis would have ended
+with the wrist behind the bottle."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from runtime_helpers import sim_run_profile
+
+from runtime.devices import open_devices
+from runtime.run.runner import Runtime
+from runtime.run.stages import PipelineStages
+from runtime.supervision.states import State
+
+
+@pytest.mark.slow
+def test_goalvla_run_stands_the_bottle_up(sim_config_path, tmp_path):
+    profile = sim_run_profile(sim_config_path, "bottle_standup", 105, "bottle_standup")
+    with open_devices(profile) as devices, Runtime(profile, devices, PipelineStages(), confirm="yes") as rt:
+        lying = devices.world.object_pose("bottle_shape")[:3, 2]  # the bottle's axis (the shape's own z)
+        result = rt.run("stand the green bottle up", tmp_path / "run")
+        axis = devices.world.object_pose("bottle_shape")[:3, 2]
+    assert abs(lying[2]) < 0.1
+    assert result.status == State.DONE, result.reason
+    assert result.summary.plan.mode == "grasp"
+    # as grounded, every grasp would end with the wrist behind the bottle: it is set down turned about its axis
+    assert min(result.summary.contact.turn_from_grounded_deg) > 10.0
+    assert abs(axis[2]) > np.cos(np.radians(15.0)), f"ground truth: the bottle's axis is {axis}, not upright"
