@@ -50,7 +50,7 @@ class ControllerSafety:
         tcp = next(j for j in spec.fixed_joints if j.child == spec.tcp_link)
         return cls(
             collision_sensitivity=robot.collision_sensitivity,
-            tcp_boundary_mm=(hi[0], lo[0], hi[1], lo[1], hi[2], lo[2]),
+            tcp_boundary_mm=tuple(float(v) for v in (hi[0], lo[0], hi[1], lo[1], hi[2], lo[2])),
             max_joint_speed_deg_s=math.degrees(safety.max_joint_velocity_rad_s),
             max_tcp_speed_mm_s=safety.max_tcp_speed_m_s * 1000.0,
             tcp_offset_mm=tuple(float(v) * 1000.0 for v in tcp.xyz),
