@@ -39,12 +39,28 @@ class RobotConfig(StrictModel):
     servo_late_s: float = Field(
         default=0.05, gt=0, le=1.0, description="a servo call slower than this is logged as late"
     )
+    emulated: bool = Field(
+        default=False,
+        description="kind xarm7 only: start the xArm controller emulator at robot.ip (loopback) over the MuJoCo "
+        "twin, in this process, and drive it through the real SDK",
+    )
 
     @model_validator(mode="after")
     def _needs_ip(self) -> RobotConfig:
         if self.kind == "xarm7" and self.ip is None:
             raise ValueError("robot.kind 'xarm7' needs robot.ip (the controller's IPv4 address)")
+        if self.emulated and self.kind != "xarm7":
+            raise ValueError(
+                f"robot.emulated emulates the xArm controller: needs robot.kind 'xarm7', not {self.kind!r}"
+            )
+        if self.emulated and not self.ip.is_loopback:
+            raise ValueError(f"robot.emulated: the emulator listens on loopback only; robot.ip {self.ip} is not")
         return self
+
+    @property
+    def simulated(self) -> bool:
+        """The MuJoCo twin is behind this robot (the sim arm, or the real driver against the emulator)."""
+        return self.kind == "sim" or self.emulated
 
 
 class SimCameraConfig(StrictModel):

@@ -275,6 +275,11 @@ class SimWorld:
         self._thread = threading.Thread(target=self._run, name="sim-physics", daemon=True)
         self._thread.start()
 
+    @property
+    def physics_thread_id(self) -> int | None:
+        """The OS thread id of the real-time physics thread (None before start() or when stepped)."""
+        return self._thread.native_id if self._thread is not None else None
+
     def stop(self) -> None:
         self._running.clear()
         if self._thread is not None:

@@ -203,7 +203,7 @@ def run(
     if allow_unvalidated_goal:
         overrides["pipeline"] = {"allow_unvalidated_goal": True}
     profile = _load(config, overrides or None)
-    if sim and profile.robot.kind != "sim":
+    if sim and not profile.robot.simulated:
         _fail(f"--scene/--seed only apply to sim profiles; {config} drives robot.kind {profile.robot.kind!r}")
     raise typer.Exit(run_command(profile, instruction, yes, record, serve))
 
@@ -271,6 +271,36 @@ def doctor(config: ConfigOption = DEFAULT_CONFIG) -> None:
     from runtime.commands.doctor import run_doctor
 
     raise typer.Exit(run_doctor(_load(config), Console()))
+
+
+@app.command()
+def emulator(
+    config: ConfigOption = Path("configs/emulated.yaml"),
+    address: Annotated[
+        str | None, typer.Option(help="loopback address to listen on; default robot.ip of an emulated profile")
+    ] = None,
+) -> None:
+    """The xArm 7 controller emulator over the profile's MuJoCo scene: TCP 502 and 30003 on a loopback address,
+    for any xarm-python-sdk client, until Ctrl-C. (`goalvla run` with an emulated profile starts its own.)"""
+    import threading
+
+    from drivers.xarm7.emulator import EmulatorBindError
+    from drivers.xarm7.emulator.cell import serve
+
+    profile = _load(config)
+    if address is None and not profile.robot.emulated:
+        _fail(f"{config} is not an emulated profile (robot.emulated): give --address 127.0.0.N")
+    try:
+        serve(
+            profile.sim,
+            profile.camera,
+            address or str(profile.robot.ip),
+            profile.robot.control_rate_hz,
+            typer.echo,
+            threading.Event(),
+        )
+    except (EmulatorBindError, ValueError) as e:
+        _fail(str(e))
 
 
 if __name__ == "__main__":
