@@ -8,9 +8,9 @@ each region is of the kind its silhouette and inner edges fit best (shape_cues.p
 regions of that colour; a shape word keeps those classified as one of its kinds ("box" is any box, a lidded one
 too; "block" and "cube" only a plain one), and with a colour word, when none of that colour is classified so,
 those of that colour that fit the shape best (at least loosely; when none does, every one of that colour: the
-colour decides and the shape only ranks). A lid of another colour is a part of its box, not an object of its
-own. A shape word alone must be the region's best kind, so
-"the scale" is the scale, not every box-like thing. A shade word (dark, light) is accepted and does not narrow.
+colour decides and the shape only ranks). A shade word (dark, light) keeps, among several of the colour, the
+darker or paler ones. A lid of another colour is a part of its box, not an object of its own. A shape word
+alone must be the region's best kind, so "the scale" is the scale, not every box-like thing.
 A part word ("the lid of the blue box") names the lid of the named object: a region of another colour attached
 to it from above (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the
 box's region (faces are the pieces between the edges inside it).
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.perception.colour_regions import ACHROMATIC, CHROMATIC, Region, regions
+from pipeline.perception.colour_regions import ACHROMATIC, CHROMATIC, Region, hsv, regions
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, box_of, check_rgb
 from pipeline.perception.shape_cues import classify
 
@@ -54,11 +54,13 @@ SHAPE_WORDS: dict[str, frozenset[str]] = {
 }
 PART_WORDS = ("lid",)
 SHADE_WORDS = ("dark", "light")
-FILLER_WORDS = {"the", "a", "an", "small", "big", "large", "little", "object", "lidded", "of", "s", *SHADE_WORDS}
+FILLER_WORDS = {"the", "a", "an", "small", "big", "large", "little", "object", "lidded", "of", "s"}
+SHUT_LOOKS_LIKE = frozenset({"box"})  # a lidded box with its lid shut is a box to the eye
 ATTACHED_PX = 4  # a part's region lies within this many pixels of its object's region
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
 FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
 RANK_MARGIN = 0.15  # with a colour word and no region of the shape: those fitting it within this of the best
+SHADE_RATIO = 0.8  # a light (dark) region's saturation (value) against the deepest (brightest) of its colour
 
 
 @dataclass(frozen=True)
@@ -66,18 +68,22 @@ class ObjectPhrase:
     colour: str | None
     shape: str | None  # the shape word (a key of SHAPE_WORDS)
     part: str | None = None  # a part of the object (PART_WORDS), e.g. its lid
+    shade: str | None = None  # dark or light (SHADE_WORDS): among several of the colour, the darker or paler
+    also: frozenset[str] = frozenset()  # kinds matched besides the shape word's
 
     @property
     def kinds(self) -> frozenset[str] | None:
-        return None if self.shape is None else SHAPE_WORDS[self.shape]
+        return None if self.shape is None else SHAPE_WORDS[self.shape] | self.also
 
 
 def parse_phrase(phrase: str) -> ObjectPhrase:
     """Colour, shape and part words of an object phrase; other words are errors so typos do not go unnoticed."""
-    colour = shape = part = None
+    colour = shape = part = shade = None
     words = re.findall(r"[a-z]+", phrase.lower())
     for w in words:
-        if w in COLOUR_WORDS and colour is None:
+        if w in SHADE_WORDS and shade is None:
+            shade = w
+        elif w in COLOUR_WORDS and colour is None:
             colour = COLOUR_WORDS[w]
         elif w in SHAPE_WORDS and shape is None:
             shape = w
@@ -90,7 +96,7 @@ def parse_phrase(phrase: str) -> ObjectPhrase:
             )
     if colour is None and shape is None:
         raise SegmentationError(f"offline segmenter: {phrase!r} names no colour or shape word for the object")
-    return ObjectPhrase(colour, shape, part)
+    return ObjectPhrase(colour, shape, part, shade if colour else None)
 
 
 @dataclass(frozen=True)
@@ -98,6 +104,7 @@ class Instance:
     region: Region
     kind: str  # the best-scoring kind
     scores: dict[str, float]
+    hsv: tuple[np.ndarray, np.ndarray, np.ndarray]  # hue, saturation, value of its pixels
 
 
 class OfflineSegmenter(Segmenter):
@@ -115,12 +122,15 @@ class OfflineSegmenter(Segmenter):
         want = parse_phrase(phrase)
         instances = self.instances(rgb)
         lids = {id(lid) for i in instances if i.kind == "lidded_box" for lid in [_attached_lid(i, instances)] if lid}
-        objects = _matching([i for i in instances if id(i) not in lids], want, self.min_shape_score)
+        whole = want
+        if want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
+            whole = ObjectPhrase(want.colour, want.shape, want.part, want.shade, SHUT_LOOKS_LIKE)  # shut: a box
+        objects = _matching([i for i in instances if id(i) not in lids], whole, self.min_shape_score)
         if want.part is None:
             return [_detection(i, want, i.region.mask) for i in objects]
         out = []
         for whole in objects:
-            lid = _lid(rgb, whole, instances)
+            lid = _lid(rgb, whole, instances, want)
             if lid is not None:
                 out.append(Detection(lid, _score(whole, want), box_of(lid), f"{want.part} of {_label(whole)}"))
         return out
@@ -129,9 +139,11 @@ class OfflineSegmenter(Segmenter):
         """Every colour region of the image with its kind."""
         min_area = max(20, int(self.min_area_frac * rgb.shape[0] * rgb.shape[1]))
         out = []
+        h, s, v = hsv(rgb)
         for region in regions(rgb, min_area):
             kind, scores = classify(region.mask, rgb, region.colour)
-            out.append(Instance(region, kind, scores))
+            m = region.mask
+            out.append(Instance(region, kind, scores, (h[m], s[m], v[m])))
         return out
 
 
@@ -147,7 +159,19 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
             fit = {id(i): max(i.scores[k] for k in kinds) for i in found}
             best = max(fit.values(), default=0.0)
             found = [i for i in found if fit[id(i)] >= max(loose, best - RANK_MARGIN)] if best >= loose else found
+    if want.shade is not None and len(found) > 1:
+        found = _of_shade(found, want.shade)
     return sorted(found, key=lambda i: (-_score(i, want), -i.region.area))
+
+
+def _of_shade(found: list[Instance], shade: str) -> list[Instance]:
+    """Among regions of one colour, the paler ("light": saturation well below the deepest's; shading leaves
+    saturation alone) or the darker ("dark": value well below the brightest's)."""
+    channel = 1 if shade == "light" else 2
+    level = {id(i): float(np.median(i.hsv[channel])) for i in found}
+    ref = max(level.values())
+    kept = [i for i in found if level[id(i)] < SHADE_RATIO * ref]
+    return kept or found
 
 
 def _score(instance: Instance, want: ObjectPhrase) -> float:
@@ -162,13 +186,17 @@ def _detection(instance: Instance, want: ObjectPhrase, mask: np.ndarray) -> Dete
     return Detection(mask, _score(instance, want), box_of(mask), _label(instance))
 
 
-def _lid(rgb: np.ndarray, whole: Instance, instances: list[Instance]) -> np.ndarray | None:
-    """The lid of an object: a region of another colour attached to it from above, or else the topmost face of
-    its own region (a lid of the object's own colour)."""
+def _lid(rgb: np.ndarray, whole: Instance, instances: list[Instance], want: ObjectPhrase) -> np.ndarray | None:
+    """The lid of an object: a region of another colour attached to it from above, or else, for a lidded box
+    (or a shut one, which looks like a plain box, when the phrase may name a lidded box), the topmost face of its
+    own region (a lid of the box's own colour)."""
     lid = _attached_lid(whole, instances, any_shape=True)
     if lid is not None:  # less the pixels along the box, where the two colours blend
         return lid.region.mask & ~cv2.dilate(whole.region.mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    return _top_face(rgb, whole.region.mask) if whole.kind == "lidded_box" else None
+    may_be_lidded = want.kinds is None or "lidded_box" in want.kinds
+    if whole.kind == "lidded_box" or (whole.kind == "box" and may_be_lidded):
+        return _top_face(rgb, whole.region.mask)
+    return None
 
 
 def _attached_lid(whole: Instance, instances: list[Instance], any_shape: bool = False) -> Instance | None:
@@ -200,11 +228,11 @@ def _top_face(rgb: np.ndarray, mask: np.ndarray) -> np.ndarray | None:
     gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     edges = cv2.dilate(cv2.Canny(gray, 15, 45), np.ones((2, 2), np.uint8)).astype(bool)
     n, comp = cv2.connectedComponents((mask & ~edges).astype(np.uint8), connectivity=4)
-    faces = [comp == i for i in range(1, n)]
-    faces = [f for f in faces if f.sum() >= LID_MIN_FRACTION * mask.sum()]
-    if len(faces) < 2:  # one face is the whole object: no lid to tell from it
+    faces = [f for f in (comp == i for i in range(1, n)) if f.sum() >= 0.05 * mask.sum()]
+    large = [f for f in faces if f.sum() >= LID_MIN_FRACTION * mask.sum()]
+    if len(faces) < 2 or not large:  # one face is the whole object: no lid to tell from it
         return None
-    face = min(faces, key=lambda f: np.nonzero(f)[0].mean())
+    face = min(large, key=lambda f: np.nonzero(f)[0].mean())
     v, u = np.nonzero(face)
     columns = np.unique(u)
     bottom = np.array([v[u == c].max() for c in columns], np.float64)

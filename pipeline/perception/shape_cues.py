@@ -120,7 +120,12 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     }
 
 
+UNKNOWN = "unknown"  # a region no kind fits (an inpainting smear, a fragment)
+MIN_KIND_SCORE = 0.1
+
+
 def classify(mask: np.ndarray, rgb: np.ndarray, colour: str) -> tuple[str, dict[str, float]]:
-    """The best-scoring kind of a region, and every kind's score."""
+    """The best-scoring kind of a region (UNKNOWN when none scores MIN_KIND_SCORE), and every kind's score."""
     s = scores(cues(mask, rgb), colour)
-    return max(s, key=s.get), s
+    best = max(s, key=s.get)
+    return (best if s[best] >= MIN_KIND_SCORE else UNKNOWN), s

@@ -130,11 +130,11 @@ def spot_beside(
     """The shift that puts `target` beside `reference` towards `direction` (a unit vector in the plane): the
     first candidate that passes Table.problem, or None and why each failed ("what" names the request)."""
     cfg = table.config
-    base = target.radius_m + reference.radius_m + cfg.beside_gap_m
     problems: Counter[str] = Counter()
     for extra in cfg.farther_m:
         for turn in cfg.turns_deg:
             d = axis_rotation(table.plane.n, math.radians(turn)) @ direction
+            base = reach_along(reference, d, table.plane) + reach_along(target, -d, table.plane) + cfg.beside_gap_m
             shift = reference.centre + d * (base + extra) - target.centre
             problem = table.problem(target, shift)
             if problem is None:
@@ -143,6 +143,13 @@ def spot_beside(
     tried = sum(problems.values())
     why = ", ".join(f"{n} {p}" for p, n in problems.most_common())
     return None, f"no free spot {what}: {tried} spots tried ({why})"
+
+
+def reach_along(fp: Footprint, d: np.ndarray, plane: Plane) -> float:
+    """How far the object reaches from its centre towards d on the table (a pan's handle that way counts), at
+    least its footprint radius (its far side is unseen)."""
+    q = plane.project(fp.points) - fp.centre
+    return max(fp.radius_m, float(np.percentile(q @ d, 98)))
 
 
 def _short(problem: str) -> str:
