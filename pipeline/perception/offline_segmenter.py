@@ -9,7 +9,8 @@ regions of that colour; a shape word keeps those classified as one of its kinds 
 too; "block" and "cube" only a plain one), and with a colour word, when none of that colour is classified so,
 those of that colour that fit the shape best (at least loosely; when none does, every one of that colour: the
 colour decides and the shape only ranks). A shade word (dark, light) keeps, among several of the colour, the
-darker or paler ones. A lid of another colour is a part of its box, not an object of its own. A shape word
+darker or paler ones; white stands for gray and gray for white when nothing is named so (a white lid in the
+shade, a gray one in the light). A lid of another colour is a part of its box, not an object of its own. A shape word
 alone must be the region's best kind, so "the scale" is the scale, not every box-like thing.
 A part word ("the lid of the blue box") names the lid of the named object: a region of another colour attached
 to it from above (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the
@@ -55,7 +56,8 @@ SHAPE_WORDS: dict[str, frozenset[str]] = {
 PART_WORDS = ("lid",)
 SHADE_WORDS = ("dark", "light")
 FILLER_WORDS = {"the", "a", "an", "small", "big", "large", "little", "object", "lidded", "of", "s"}
-SHUT_LOOKS_LIKE = frozenset({"box"})  # a lidded box with its lid shut is a box to the eye
+LIGHT_NEUTRALS = ("white", "gray")  # a colour word of one stands for the other when nothing is of that one
+SHUT_LOOKS_LIKE = frozenset({"box"})  # a lidded box with its lid shut is a box to the eye: when no lidded one is
 ATTACHED_PX = 4  # a part's region lies within this many pixels of its object's region
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
 FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
@@ -122,10 +124,11 @@ class OfflineSegmenter(Segmenter):
         want = parse_phrase(phrase)
         instances = self.instances(rgb)
         lids = {id(lid) for i in instances if i.kind == "lidded_box" for lid in [_attached_lid(i, instances)] if lid}
-        whole = want
-        if want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
-            whole = ObjectPhrase(want.colour, want.shape, want.part, want.shade, SHUT_LOOKS_LIKE)  # shut: a box
-        objects = _matching([i for i in instances if id(i) not in lids], whole, self.min_shape_score)
+        candidates = [i for i in instances if id(i) not in lids]
+        objects = _matching(candidates, want, self.min_shape_score)
+        if not objects and want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
+            shut = ObjectPhrase(want.colour, want.shape, want.part, want.shade, SHUT_LOOKS_LIKE)  # a shut box
+            objects = _matching(candidates, shut, self.min_shape_score)
         if want.part is None:
             return [_detection(i, want, i.region.mask) for i in objects]
         out = []
@@ -150,6 +153,8 @@ class OfflineSegmenter(Segmenter):
 def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> list[Instance]:
     """The instances a phrase names, best first (see the module docstring)."""
     found = [i for i in instances if want.colour is None or i.region.colour == want.colour]
+    if not found and want.colour in LIGHT_NEUTRALS:  # a white object in the shade, a gray one in the light
+        found = [i for i in instances if i.region.colour in LIGHT_NEUTRALS]
     kinds = want.kinds
     if kinds is not None:
         exact = [i for i in found if i.kind in kinds]
