@@ -57,7 +57,8 @@ PART_WORDS = ("lid",)
 SHADE_WORDS = ("dark", "light")
 FILLER_WORDS = {"the", "a", "an", "small", "big", "large", "little", "object", "lidded", "of", "s"}
 LIGHT_NEUTRALS = ("white", "gray")  # a colour word of one stands for the other when nothing is of that one
-SHUT_LOOKS_LIKE = frozenset({"box"})  # a lidded box with its lid shut is a box to the eye: when no lidded one is
+SHUT_LOOKS_LIKE = frozenset({"box"})  # a lidded box with its lid shut is a box to the eye: when no lidded one is,
+CHEST_AREA_RATIO = 0.6  # ... the largest box (and any nearly as large): a chest is several blocks in size
 ATTACHED_PX = 4  # a part's region lies within this many pixels of its object's region
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
 FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
@@ -128,7 +129,9 @@ class OfflineSegmenter(Segmenter):
         objects = _matching(candidates, want, self.min_shape_score)
         if not objects and want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
             shut = ObjectPhrase(want.colour, want.shape, want.part, want.shade, SHUT_LOOKS_LIKE)  # a shut box
-            objects = _matching(candidates, shut, self.min_shape_score)
+            boxes = _matching(candidates, shut, self.min_shape_score)
+            largest = max((i.region.area for i in boxes), default=0)
+            objects = [i for i in boxes if i.region.area >= CHEST_AREA_RATIO * largest]  # a chest outsizes blocks
         if want.part is None:
             return [_detection(i, want, i.region.mask) for i in objects]
         out = []

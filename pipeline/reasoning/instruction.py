@@ -87,7 +87,7 @@ def _phrase(text: str, sentence: str) -> str:
         p = parse_phrase(text)
     except SegmentationError as e:
         raise InstructionError(f"{sentence!r}: {e}\n{GRAMMAR}") from None
-    return " ".join(w for w in (p.colour, _shape_word(text)) if w)
+    return " ".join(w for w in (p.shade, p.colour, _shape_word(text)) if w)
 
 
 def _shape_word(text: str) -> str | None:
