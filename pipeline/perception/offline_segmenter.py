@@ -11,7 +11,9 @@ those of that colour that fit the shape best (at least loosely; when none does, 
 colour decides and the shape only ranks). A shade word (dark, light) keeps, among several of the colour, the
 darker or paler ones; white stands for gray and gray for white when nothing is named so (a white lid in the
 shade, a gray one in the light). A lid of another colour is a part of its box, not an object of its own. A shape word
-alone must be the region's best kind, so "the scale" is the scale, not every box-like thing.
+alone keeps the regions of its kinds (when there is none, those fitting it well, the best within a margin; a
+moved object seen from another side can read as a neighbouring kind), so "the scale" is the scale, not every
+box-like thing.
 A part word ("the lid of the blue box") names the lid of the named object: a region of another colour attached
 to it from above (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the
 box's region (faces are the pieces between the edges inside it).
@@ -62,7 +64,8 @@ CHEST_AREA_RATIO = 0.6  # ... the largest box (and any nearly as large): a chest
 ATTACHED_PX = 4  # a part's region lies within this many pixels of its object's region
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
 FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
-RANK_MARGIN = 0.15  # with a colour word and no region of the shape: those fitting it within this of the best
+RANK_MARGIN = 0.15  # with no region of the shape's kinds: those fitting it within this of the best
+SHAPE_ONLY_FIT = 0.5  # ... and with no colour word, fitting it at least this well
 SHADE_RATIO = 0.8  # a light (dark) region's saturation (value) against the deepest (brightest) of its colour
 
 
@@ -161,11 +164,13 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
     kinds = want.kinds
     if kinds is not None:
         exact = [i for i in found if i.kind in kinds]
-        if exact or want.colour is None:
+        fit = {id(i): max(i.scores[k] for k in kinds) for i in found}
+        best = max(fit.values(), default=0.0)
+        if exact:
             found = exact
+        elif want.colour is None:  # the shape alone decides: a region that fits it well, if none is of its kind
+            found = [i for i in found if fit[id(i)] >= max(SHAPE_ONLY_FIT, best - RANK_MARGIN)]
         else:  # the colour decides; the shape ranks: the best fits (a loose bound), or all of that colour
-            fit = {id(i): max(i.scores[k] for k in kinds) for i in found}
-            best = max(fit.values(), default=0.0)
             found = [i for i in found if fit[id(i)] >= max(loose, best - RANK_MARGIN)] if best >= loose else found
     if want.shade is not None and len(found) > 1:
         found = _of_shade(found, want.shade)

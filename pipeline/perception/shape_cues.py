@@ -93,7 +93,11 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     body = _within(c.end_width, 0.8, 1.0, 0.1)  # as wide at its ends as in its middle
     necked = _within(c.end_width, 0.0, 0.66, 0.1) * _within(c.end_width, 0.32, 1.0, 0.1)
     return {
-        "sphere": _within(c.elongation, 1.0, 1.08, 0.06) * _within(c.ellipse_iou, 0.94, 1.0, 0.04) * smooth,
+        # a ball: round and smooth; an edited goal re-projects its seen half, which stretches it upward a little
+        "sphere": _within(c.elongation, 1.0, 1.2, 0.08)
+        * _within(c.aspect, 0.75, 1.1, 0.03)
+        * _within(c.ellipse_iou, 0.94, 1.0, 0.04)
+        * smooth,
         "bowl": _within(c.elongation, 1.0, 1.2, 0.1)
         * _within(c.ellipse_iou, 0.92, 1.0, 0.04)
         * _within(c.aspect, 0.85, 1.2, 0.1)
