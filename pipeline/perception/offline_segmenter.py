@@ -62,6 +62,8 @@ LIGHT_NEUTRALS = ("white", "gray")  # a colour word of one stands for the other 
 SHUT_LOOKS_LIKE = frozenset({"box"})  # a lidded box with its lid shut is a box to the eye: when no lidded one is,
 CHEST_AREA_RATIO = 0.6  # ... the largest box (and any nearly as large): a chest is several blocks in size
 ATTACHED_PX = 4  # a part's region lies within this many pixels of its object's region
+CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+BLEND_SATURATION = 0.8  # a lid's pixel along its box this much less saturated than the lid is a blend of the two
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
 FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
 RANK_MARGIN = 0.15  # with no region of the shape's kinds: those fitting it within this of the best
@@ -204,8 +206,11 @@ def _lid(rgb: np.ndarray, whole: Instance, instances: list[Instance], want: Obje
     (or a shut one, which looks like a plain box, when the phrase may name a lidded box), the topmost face of its
     own region (a lid of the box's own colour)."""
     lid = _attached_lid(whole, instances, any_shape=True)
-    if lid is not None:  # less the pixels along the box, where the two colours blend
-        return lid.region.mask & ~cv2.dilate(whole.region.mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    if lid is not None:  # less the pixels along the box where the two colours blend (washed out)
+        mask = lid.region.mask & ~whole.region.mask
+        along = mask & cv2.dilate(whole.region.mask.astype(np.uint8), CROSS).astype(bool)
+        _, sat, _ = hsv(rgb)
+        return mask & ~(along & (sat < BLEND_SATURATION * np.median(sat[mask])))
     may_be_lidded = want.kinds is None or "lidded_box" in want.kinds
     if whole.kind == "lidded_box" or (whole.kind == "box" and may_be_lidded):
         return _top_face(rgb, whole.region.mask)
