@@ -126,7 +126,10 @@ class SimBoardConfig(StrictModel):
 
 
 class SimConfig(StrictModel):
-    scene: str = Field(default="tabletop", description="scene name: <scenes_dir>/<scene>.yaml")
+    scene: str = Field(
+        default="tabletop",
+        description="scene name (<scenes_dir>/<scene>.yaml), a scene file path (*.yaml), or gen:SEED (generated)",
+    )
     scenes_dir: Path = Path("scenes")
     seed: int = Field(default=0, ge=0, lt=2**63)
     physics_dt_s: float = Field(default=0.002, gt=0, le=0.01)

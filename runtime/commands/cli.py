@@ -205,7 +205,32 @@ def run(
     profile = _load(config, overrides or None)
     if sim and not profile.robot.simulated:
         _fail(f"--scene/--seed only apply to sim profiles; {config} drives robot.kind {profile.robot.kind!r}")
+    _refuse_unstartable(profile, instruction)
     raise typer.Exit(run_command(profile, instruction, yes, record, serve))
+
+
+def _refuse_unstartable(profile, instruction: str | None) -> None:
+    """Exit 2 before any device starts: missing API keys, a sentence outside the offline grammar (when the offline
+    VLM reads it), a sim scene that cannot be loaded or placed."""
+    from pipeline.reasoning.factory import preflight
+    from pipeline.reasoning.instruction import InstructionError, check_instruction
+
+    problems = preflight(profile.pipeline)
+    if instruction is not None and profile.pipeline.vlm == "offline":
+        try:
+            check_instruction(instruction)
+        except InstructionError as e:
+            problems.append(str(e))
+    if profile.robot.kind == "sim":
+        from drivers.sim.generate import check_scene
+        from drivers.sim.scene import SceneError
+
+        try:
+            check_scene(profile.sim)
+        except SceneError as e:
+            problems.append(str(e))
+    if problems:
+        _fail("cannot start:\n  " + "\n  ".join("\n  ".join(p.splitlines()) for p in problems))
 
 
 @app.command()
