@@ -11,11 +11,11 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import yaml
 from PIL import Image
 from pydantic import Field, ValidationError, model_validator
 
 from drivers.config import StrictModel
+from drivers.files import InputFileError, check_output_path, load_yaml
 
 MM_PER_INCH = 25.4
 
@@ -64,9 +64,9 @@ class CharucoBoardSpec(StrictModel):
 
 def load_board(path: Path) -> CharucoBoardSpec:
     try:
-        data = yaml.safe_load(Path(path).read_text())
-    except OSError as e:
-        raise BoardError(f"{path}: cannot read board definition ({e.strerror})") from None
+        data = load_yaml(Path(path), "board definition")
+    except InputFileError as e:
+        raise BoardError(str(e)) from None
     try:
         return CharucoBoardSpec.model_validate(data)
     except ValidationError as e:
@@ -83,6 +83,10 @@ def write_printable(spec: CharucoBoardSpec, out: Path, dpi: int = 300, margin_m:
     suffix = out.suffix.lower()
     if suffix not in (".png", ".pdf"):
         raise BoardError(f"{out}: the board is written as .png or .pdf")
+    try:
+        check_output_path(out, "the board image")
+    except InputFileError as e:
+        raise BoardError(str(e)) from None
     px_per_square = round(spec.square_length_m * 1000.0 / MM_PER_INCH * dpi)
     exact_dpi = px_per_square / (spec.square_length_m * 1000.0 / MM_PER_INCH)  # makes one square exactly true size
     img = spec.image(px_per_square, margin_squares=margin_m / spec.square_length_m)

@@ -11,6 +11,7 @@ import yaml
 from pydantic import Field, ValidationError, field_validator
 
 from drivers.config import StrictModel
+from drivers.files import InputFileError, load_yaml
 
 
 class CalibrationError(ValueError):
@@ -53,13 +54,10 @@ class HandEyeCalibration(StrictModel):
 
 def load_calibration(path: Path) -> HandEyeCalibration:
     try:
-        data = yaml.safe_load(Path(path).read_text())
-    except OSError as e:
-        raise CalibrationError(
-            f"{path}: cannot read calibration ({e.strerror}); run `goalvla calibrate hand-eye` first"
-        ) from None
-    except yaml.YAMLError as e:
-        raise CalibrationError(f"{path}: invalid YAML ({e})") from None
+        data = load_yaml(Path(path), "calibration")
+    except InputFileError as e:
+        hint = "; run `goalvla calibrate hand-eye` first" if not Path(path).exists() else ""
+        raise CalibrationError(f"{e}{hint}") from None
     try:
         return HandEyeCalibration.model_validate(data)
     except ValidationError as e:

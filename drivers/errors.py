@@ -64,8 +64,15 @@ API_CODES: dict[int, str] = {
     1: "uncleared controller error",
     2: "uncleared controller warning",
     3: "reply timeout",
+    4: "reply of the wrong length",
+    5: "reply to another request",
+    6: "reply with the wrong protocol id (malformed)",
+    7: "reply to another command",
     8: "send error",
     9: "state not ready",
+    10: "command invalid or failed",
+    11: "other error",
+    12: "parameter error",
 }
 
 

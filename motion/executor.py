@@ -210,7 +210,10 @@ class _Loop:
             err = min(float(np.max(np.abs(state.q - q))) for q in recent)  # nearest recent set-point
             self.max_err = max(self.max_err, err)
             if err > cfg.tracking_error_max_rad:
-                raise _Stop("fault", f"tracking error {err:.4f} rad > {cfg.tracking_error_max_rad} rad")
+                note = ""
+                if now - stamp_time > cfg.tracking_lag_s:  # a silent report freezes the measured position: say so
+                    note = f" (joint state {1000 * (now - stamp_time):.0f} ms old: the state report stalled)"
+                raise _Stop("fault", f"tracking error {err:.4f} rad > {cfg.tracking_error_max_rad} rad{note}")
             if ex._abort_reason is not None:
                 self.clock.stop()
             elif late:

@@ -21,10 +21,10 @@ class ProviderConfig(StrictModel):
 
     api_key_env: str = Field(pattern=r"^[A-Z_][A-Z0-9_]*$", description="environment variable holding the key")
     base_url: str | None = Field(default=None, description="override the API endpoint (proxies, tests)")
-    timeout_s: float = Field(default=120.0, gt=0, description="per HTTP call")
+    timeout_s: float = Field(default=120.0, gt=0, le=600, description="per HTTP call")
     max_attempts: int = Field(default=3, ge=1, le=10, description="tries per call on HTTP 429 and 5xx")
-    backoff_s: float = Field(default=2.0, ge=0, description="first wait between tries; doubles each retry")
-    backoff_max_s: float = Field(default=30.0, ge=0)
+    backoff_s: float = Field(default=2.0, ge=0, le=60, description="first wait between tries; doubles each retry")
+    backoff_max_s: float = Field(default=30.0, ge=0, le=600)
 
 
 class GeminiConfig(ProviderConfig):
@@ -47,13 +47,18 @@ class ChecksConfig(StrictModel):
     )
     max_shift_px: float = Field(default=2.0, ge=0, description="framing counts as changed beyond this shift")
     max_scale_change: float = Field(default=0.01, ge=0, description="... or beyond this relative zoom")
-    max_reregister_scale_change: float = Field(default=0.25, gt=0, description="refuse larger zooms outright")
+    max_reregister_scale_change: float = Field(default=0.25, gt=0, le=1, description="refuse larger zooms outright")
     pixel_change_threshold: int = Field(default=40, ge=1, le=255, description="background colour change per pixel")
     max_changed_blob_frac: float = Field(
-        default=0.0015, gt=0, description="a changed background region larger than this image fraction = moved object"
+        default=0.0015,
+        gt=0,
+        le=1,
+        description="a changed background region larger than this image fraction = moved object",
     )
     max_target_iou: float = Field(default=0.97, gt=0, le=1, description="target mask overlap meaning 'did not move'")
-    mask_margin_px: int = Field(default=6, ge=0, description="masks are grown by this much when comparing backgrounds")
+    mask_margin_px: int = Field(
+        default=6, ge=0, le=200, description="masks are grown by this much when comparing backgrounds"
+    )
 
 
 class PipelineConfig(StrictModel):

@@ -2,7 +2,9 @@
 
 A profile may `include:` other profiles (paths relative to itself); its sections are deep-merged over theirs,
 mappings key by key, anything else replaced. Errors name the file that set the offending key, the key path and
-the problem. Relative paths in the config are resolved against the file that wrote them.
+the problem. Relative paths in the config are resolved against the file that wrote them. Files are read with
+drivers.files.load_yaml (UTF-8, bounded, a repeated key is an error with its line); one profile reads at most
+MAX_PROFILE_FILES files, includes included.
 """
 
 from __future__ import annotations
@@ -10,16 +12,17 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
 from pydantic import Field, ValidationError, model_validator
 
 from calibration.config import CalibrationConfig
 from drivers.config import CameraConfig, RobotConfig, SimConfig, StrictModel
+from drivers.files import InputFileError, load_yaml
 from motion.config import MotionConfig
 from pipeline.config import PipelineConfig
 from safety.config import SafetyConfig
 
 KeyPath = tuple[str, ...]
+MAX_PROFILE_FILES = 32
 PATH_KEYS: tuple[KeyPath, ...] = (
     ("calibration", "file"),
     ("sim", "scenes_dir"),
@@ -61,16 +64,19 @@ class ZenohConfig(StrictModel):
         return self
 
 
+MAX_STATE_BUDGET_S = 3600.0  # an hour in one state is a hung run, and a longer timeout would overflow a wait
+
+
 class StateBudgets(StrictModel):
     """Seconds each state may last before the run fails; awaiting_confirm is the confirm timeout."""
 
-    capturing: float = Field(default=5.0, gt=0)
-    reasoning: float = Field(default=120.0, gt=0)
-    grounding: float = Field(default=30.0, gt=0)
-    planning: float = Field(default=60.0, gt=0)
-    awaiting_confirm: float = Field(default=120.0, gt=0)
-    executing: float = Field(default=120.0, gt=0)
-    verifying: float = Field(default=15.0, gt=0)
+    capturing: float = Field(default=5.0, gt=0, le=MAX_STATE_BUDGET_S)
+    reasoning: float = Field(default=120.0, gt=0, le=MAX_STATE_BUDGET_S)
+    grounding: float = Field(default=30.0, gt=0, le=MAX_STATE_BUDGET_S)
+    planning: float = Field(default=60.0, gt=0, le=MAX_STATE_BUDGET_S)
+    awaiting_confirm: float = Field(default=120.0, gt=0, le=MAX_STATE_BUDGET_S)
+    executing: float = Field(default=120.0, gt=0, le=MAX_STATE_BUDGET_S)
+    verifying: float = Field(default=15.0, gt=0, le=MAX_STATE_BUDGET_S)
 
 
 class RuntimeConfig(StrictModel):
@@ -84,8 +90,8 @@ class RuntimeConfig(StrictModel):
     estop_node: Literal["external", "in_process"] = Field(
         default="external", description="in_process: a heartbeat thread in the run itself (sim profiles only)"
     )
-    verify_position_tol_m: float = Field(default=0.03, gt=0, description="achieved vs goal object translation")
-    verify_rotation_tol_deg: float = Field(default=15.0, gt=0, description="achieved vs goal object rotation")
+    verify_position_tol_m: float = Field(default=0.03, gt=0, le=1.0, description="achieved vs goal object translation")
+    verify_rotation_tol_deg: float = Field(default=15.0, gt=0, le=180, description="achieved vs goal object rotation")
     estop_latch_file: Path | None = Field(
         default=None,
         description="an e-stop writes it and later runs start ESTOPPED until a reset removes it (set on real robots)",
@@ -106,15 +112,9 @@ class Profile(StrictModel):
 
 def _read_yaml(path: Path) -> dict[str, Any]:
     try:
-        text = path.read_text()
-    except OSError as e:
-        raise ConfigError(f"{path}: cannot read profile ({e.strerror})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f":{mark.line + 1}:{mark.column + 1}" if mark else ""
-        raise ConfigError(f"{path}{where}: invalid YAML ({getattr(e, 'problem', e)})") from None
+        data = load_yaml(path, "profile")
+    except InputFileError as e:
+        raise ConfigError(str(e)) from None
     if data is None:
         return {}
     if not isinstance(data, dict):
@@ -139,12 +139,24 @@ def _merge(base: dict, over: dict, origin: dict[KeyPath, Path], path: Path | Non
     return out
 
 
-def _load_merged(path: Path, origin: dict[KeyPath, Path], stack: tuple[Path, ...]) -> dict:
-    path = path.resolve()
+def _load_merged(path: Path, origin: dict[KeyPath, Path], stack: tuple[Path, ...], loaded: list[Path]) -> dict:
+    """The profile at path with its includes merged under it; `stack` holds the files including it."""
+    try:
+        path = path.resolve()
+    except (OSError, ValueError, RuntimeError) as e:  # a NUL byte, a symlink loop
+        raise ConfigError(
+            f"{stack[-1] if stack else path}: include: {str(path)!r} is not a usable path ({e})"
+        ) from None
     if path in stack:
         chain = " -> ".join(str(p) for p in (*stack, path))
         raise ConfigError(f"{path}: include cycle ({chain})")
-    data = _read_yaml(path)
+    loaded.append(path)
+    if len(loaded) > MAX_PROFILE_FILES:
+        raise ConfigError(f"{path}: includes read more than {MAX_PROFILE_FILES} files (from {loaded[0]})")
+    try:
+        data = _read_yaml(path)
+    except ConfigError as e:
+        raise (ConfigError(f"{stack[-1]}: include: {e}") if stack else e) from None
     includes = data.pop("include", [])
     if isinstance(includes, str):
         includes = [includes]
@@ -152,7 +164,7 @@ def _load_merged(path: Path, origin: dict[KeyPath, Path], stack: tuple[Path, ...
         raise ConfigError(f"{path}: include: must be a path or a list of paths")
     merged: dict = {}
     for inc in includes:  # each include records its own keys' origins
-        merged = _merge(merged, _load_merged(path.parent / inc, origin, (*stack, path)), origin, None)
+        merged = _merge(merged, _load_merged(path.parent / inc, origin, (*stack, path), loaded), origin, None)
     return _merge(merged, data, origin, path)
 
 
@@ -170,9 +182,13 @@ def _resolve_paths(data: dict, origin: dict[KeyPath, Path], default: Path) -> No
             node = node.get(key) if isinstance(node, dict) else None
         if not isinstance(node, dict) or not isinstance(node.get(key_path[-1]), str):
             continue
-        value = Path(node[key_path[-1]]).expanduser()
-        if not value.is_absolute():
-            value = (_origin_of(key_path, origin, default).parent / value).resolve()
+        file = _origin_of(key_path, origin, default)
+        try:
+            value = Path(node[key_path[-1]]).expanduser()
+            if not value.is_absolute():
+                value = (file.parent / value).resolve()
+        except (RuntimeError, ValueError, OSError) as e:  # ~unknown-user, a NUL byte, a symlink loop
+            raise ConfigError(f"{file}: {'.'.join(key_path)}: not a usable path ({e})") from None
         node[key_path[-1]] = str(value)
 
 
@@ -180,7 +196,7 @@ def load_profile(path: str | Path, overrides: dict[str, Any] | None = None) -> P
     """Load and validate a profile; `overrides` (nested mapping) is merged last, as if from the command line."""
     path = Path(path)
     origin: dict[KeyPath, Path] = {}
-    data = _load_merged(path, origin, ())
+    data = _load_merged(path, origin, (), [])
     sim = data.setdefault("sim", {})
     if isinstance(sim, dict) and "scenes_dir" not in sim:
         sim["scenes_dir"] = "scenes"  # default: next to the profile

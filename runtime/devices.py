@@ -92,6 +92,15 @@ def _hardware_devices(profile: Profile) -> tuple[Camera, Arm, Gripper, None]:
     return FemtoBolt(profile.camera), arm, XArmGripper(arm), None
 
 
+def _emulated_cell(profile: Profile):
+    """The real xArm driver against the controller emulator at robot.ip over the twin; the SimCamera sees it."""
+    if profile.camera.kind != "sim":
+        raise DeviceSetupError("robot.emulated drives the MuJoCo twin: camera.kind must be 'sim' to see it")
+    from drivers.xarm7.emulator.cell import EmulatedCell
+
+    return EmulatedCell.start(profile.robot, profile.safety, profile.sim, profile.camera)
+
+
 def camera_extrinsics(profile: Profile, world: object | None) -> tuple[CameraPose, bool]:
     """(joints -> T_base_camera, whether it depends on the joints) from the calibration file, or on the sim without
     one, the simulated camera's true pose."""
@@ -122,9 +131,15 @@ def open_devices(profile: Profile, *, with_extrinsics: bool = True) -> Iterator[
     """Connect camera, arm and gripper; on any failure close what was opened. Always closes (arm stopped).
     with_extrinsics=False skips the calibration lookup (for the calibration itself)."""
     sim = profile.robot.kind == "sim" and profile.camera.kind == "sim"
-    camera, arm, gripper, world = _sim_devices(profile) if sim else _hardware_devices(profile)
-    camera_pose, moving = camera_extrinsics(profile, world) if with_extrinsics else (None, False)
+    cell = _emulated_cell(profile) if profile.robot.emulated else None
+    if cell is not None:
+        camera, arm, gripper, world = cell.camera, cell.arm, cell.gripper, cell.world
+    else:
+        camera, arm, gripper, world = _sim_devices(profile) if sim else _hardware_devices(profile)
     with ExitStack() as stack:
+        if cell is not None:
+            stack.callback(cell.stop)  # first in, last out: the emulator serves the devices' close
+        camera_pose, moving = camera_extrinsics(profile, world) if with_extrinsics else (None, False)
         for device in (arm, gripper, camera):
             device.connect()
             stack.callback(device.close)

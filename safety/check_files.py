@@ -2,19 +2,21 @@
 
 TRAJ.json: {"joint_names": [...7 names in robot order], "dt": seconds > 0, "positions": [[7 rad] * N],
             "gripper_events": [{"time_s": t, "kind": "open"|"close"|"wait", "width_m": w, "duration_s": d}]}
-(gripper_events optional). Unknown keys, NaN/inf, a missing or non-positive dt, ragged rows or the wrong joints
-make the input unusable: InputError, whose message names the file and the problem.
+(gripper_events optional). Unknown keys, NaN/inf, a missing or out-of-range dt (0.1 ms .. 10 s), ragged rows or
+the wrong joints make the input unusable, and so does a file that drivers.files.load_json refuses (not UTF-8,
+over its size, nesting or value bounds, a duplicate key): InputError, which names the file, key and problem.
+Positions may be any finite numbers: absurd ones (1e300 rad) are the gate's violations, found without expanding.
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from drivers.files import InputFileError, load_json
 from safety.collision import CollisionWorld
 from safety.config import SafetyConfig
 from safety.gate import TrajectoryError, validate
@@ -24,8 +26,8 @@ from safety.violations import GateReport
 from safety.world import WorldFileError, load_world_file
 
 
-class InputError(ValueError):
-    """An input file is unusable; the message names it and the problem."""
+class InputError(InputFileError):
+    """An input file is unusable; it names the file, the key (when one is to blame) and the problem."""
 
 
 class _Input(BaseModel):
@@ -33,38 +35,47 @@ class _Input(BaseModel):
 
 
 class GripperEventIn(_Input):
-    time_s: Annotated[float, Field(ge=0)]
+    time_s: Annotated[float, Field(ge=0, le=1e6)]
     kind: Literal["open", "close", "wait"]
-    width_m: Annotated[float, Field(ge=0)] = 0.0
-    duration_s: Annotated[float, Field(ge=0)] = 0.0
+    width_m: Annotated[float, Field(ge=0, le=1.0)] = 0.0
+    duration_s: Annotated[float, Field(ge=0, le=3600)] = 0.0
 
 
 class TrajectoryFile(_Input):
-    joint_names: list[str]
-    dt: Annotated[float, Field(gt=0)]
+    joint_names: Annotated[list[Annotated[str, Field(max_length=64)]], Field(max_length=64)]
+    dt: Annotated[float, Field(ge=1e-4, le=10.0)]
     positions: Annotated[list[list[float]], Field(min_length=1)]
-    gripper_events: list[GripperEventIn] = []
+    gripper_events: Annotated[list[GripperEventIn], Field(max_length=10_000)] = []
 
 
-def _errors(e: ValidationError, limit: int = 3) -> str:
-    return "; ".join(f"{'.'.join(str(x) for x in err['loc']) or '<root>'}: {err['msg']}" for err in e.errors()[:limit])
+def validation_problem(e: ValidationError, limit: int = 3) -> tuple[str, str]:
+    """(key of the first error, every error up to limit as `key: message`) of a pydantic error."""
+    errors = e.errors(include_url=False)
+    keys = [".".join(str(x) for x in err["loc"]) or "<root>" for err in errors]
+    problems = "; ".join(f"{key}: {err['msg']}" for key, err in zip(keys, errors[:limit], strict=False))
+    more = f" (and {len(errors) - limit} more)" if len(errors) > limit else ""
+    return keys[0], problems + more
 
 
 def load_trajectory_file(path: Path, joint_names: tuple[str, ...]) -> JointTrajectory:
     try:
-        raw = TrajectoryFile.model_validate(json.loads(Path(path).read_text()))
-    except (OSError, json.JSONDecodeError) as e:
-        raise InputError(f"{path}: cannot read trajectory JSON: {e}") from e
+        data = load_json(path, "trajectory JSON")
+    except InputFileError as e:
+        raise InputError(e.file, e.problem, e.key, e.line, e.column) from None
+    try:
+        raw = TrajectoryFile.model_validate(data)
     except ValidationError as e:
-        raise InputError(f"{path}: invalid trajectory: {_errors(e)}") from e
+        key, problems = validation_problem(e)
+        raise InputError(path, f"invalid trajectory: {problems}", key) from None
     if tuple(raw.joint_names) != joint_names:
-        raise InputError(f"{path}: joint_names {raw.joint_names} must be the robot's joints {list(joint_names)}")
+        raise InputError(path, f"{raw.joint_names} must be the robot's joints {list(joint_names)}", "joint_names")
     bad_rows = [k for k, row in enumerate(raw.positions) if len(row) != len(joint_names)]
     if bad_rows:
         k = bad_rows[0]
         raise InputError(
-            f"{path}: positions[{k}] has {len(raw.positions[k])} values, expected {len(joint_names)} "
-            f"({len(bad_rows)} bad rows)"
+            path,
+            f"has {len(raw.positions[k])} values, expected {len(joint_names)} ({len(bad_rows)} bad rows)",
+            f"positions[{k}]",
         )
     events = tuple(GripperEvent(**ev.model_dump()) for ev in raw.gripper_events)
     return JointTrajectory(tuple(raw.joint_names), raw.dt, np.array(raw.positions, dtype=np.float64), events)
@@ -80,9 +91,9 @@ def check_files(config: SafetyConfig, trajectory_path: Path, world_path: Path | 
         try:
             desc, points = load_world_file(world_path)
         except WorldFileError as e:
-            raise InputError(str(e)) from e
+            raise InputError(e.file, e.problem, e.key, e.line, e.column) from None
         world = CollisionWorld.from_description(robot, config, desc, points)
     try:
         return validate(trajectory, world)
     except TrajectoryError as e:
-        raise InputError(f"{trajectory_path}: {e}") from e
+        raise InputError(trajectory_path, str(e), "joint_names") from None

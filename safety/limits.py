@@ -3,7 +3,9 @@ per-tick step and TCP speed.
 
 Derivatives are finite differences of the positions, because positions are what the arm is sent. The arm is at
 rest before the first sample and holds the last sample afterwards, so the start-up and the final stop are
-checked too: a trajectory that ends at speed implies an instant stop, and the gate says so.
+checked too: a trajectory that ends at speed implies an instant stop, and the gate says so. A difference that
+overflows (an absurd jump) is inf or NaN and counts as exceeding every limit. With a ListingBudget, only the
+first violations of each kind are built and the rest counted.
 """
 
 from __future__ import annotations
@@ -11,23 +13,42 @@ from __future__ import annotations
 import numpy as np
 
 from safety.config import SafetyConfig
-from safety.violations import Violation, ViolationKind
+from safety.violations import ListingBudget, Violation, ViolationKind
 
 _REL_TOL = 1e-9  # numbers equal to a limit up to rounding pass
 _UNITS = {"velocity": "rad/s", "acceleration": "rad/s^2", "jerk": "rad/s^3"}
 
 
-def _exceeds(value: np.ndarray, limit) -> np.ndarray:
-    return value > np.asarray(limit) * (1 + _REL_TOL) + 1e-12
+def exceeds(value: np.ndarray, limit) -> np.ndarray:
+    """value above limit beyond rounding; NaN (an overflowed difference) exceeds too."""
+    return ~(value <= np.asarray(limit) * (1 + _REL_TOL) + 1e-12)
+
+
+def _rad(x: float) -> str:
+    """Four decimals, or four digits for an absurd value (1e300 rad would print 300 of them)."""
+    return f"{x:.4f}" if abs(x) < 1e6 else f"{x:.4g}"
+
+
+def _listed(hits: tuple[np.ndarray, ...], kind: ViolationKind, budget: ListingBudget | None):
+    """The hits (index arrays) to build violations for: all, or the budget's share of them."""
+    n = len(hits[0]) if budget is None else budget.take(kind, len(hits[0]))
+    return zip(*(h[:n] for h in hits), strict=True)
 
 
 def joint_limit_violations(
-    positions: np.ndarray, times: np.ndarray, names, lower: np.ndarray, upper: np.ndarray, margin_rad: float
+    positions: np.ndarray,
+    times: np.ndarray,
+    names,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    margin_rad: float,
+    budget: ListingBudget | None = None,
 ) -> list[Violation]:
     """Every (sample, joint) closer than margin_rad to, or beyond, a position limit."""
     lo, hi = lower + margin_rad, upper - margin_rad
     out = []
-    for k, j in zip(*np.nonzero((positions < lo - 1e-12) | (positions > hi + 1e-12)), strict=True):
+    hits = np.nonzero((positions < lo - 1e-12) | (positions > hi + 1e-12))
+    for k, j in _listed(hits, "joint_limit", budget):
         q = float(positions[k, j])
         bound, side = (float(lo[j]), "below") if q < lo[j] else (float(hi[j]), "above")
         out.append(
@@ -37,7 +58,7 @@ def joint_limit_violations(
                 (names[j],),
                 q,
                 bound,
-                f"{names[j]} at {q:.4f} rad is {side} its limit {bound:.4f} rad (margin {margin_rad} rad included)",
+                f"{names[j]} at {_rad(q)} rad is {side} its limit {bound:.4f} rad (margin {margin_rad} rad included)",
             )
         )
     return out
@@ -55,7 +76,9 @@ def rest_padded_derivative(positions: np.ndarray, dt: float, order: int) -> tupl
     return d, ends
 
 
-def derivative_violations(positions: np.ndarray, dt: float, names, config: SafetyConfig, velocity_limits) -> list:
+def derivative_violations(
+    positions: np.ndarray, dt: float, names, config: SafetyConfig, velocity_limits, budget: ListingBudget | None = None
+) -> list:
     """Velocity (per joint: the stricter of profile and description), acceleration and jerk violations."""
     bounds: dict[ViolationKind, np.ndarray] = {
         "velocity": np.minimum(config.max_joint_velocity_rad_s, velocity_limits),
@@ -66,7 +89,7 @@ def derivative_violations(positions: np.ndarray, dt: float, names, config: Safet
     out = []
     for order, (kind, limit) in enumerate(bounds.items(), start=1):
         d, ends = rest_padded_derivative(positions, dt, order)
-        for i, j in zip(*np.nonzero(_exceeds(np.abs(d), limit)), strict=True):
+        for i, j in _listed(np.nonzero(exceeds(np.abs(d), limit)), kind, budget):
             when = "" if ends[i] < n else " (stopping after the last sample)"
             out.append(
                 Violation(
@@ -81,13 +104,20 @@ def derivative_violations(positions: np.ndarray, dt: float, names, config: Safet
     return out
 
 
-def step_violations(positions: np.ndarray, times: np.ndarray, names, max_step_rad: float, q_start=None) -> list:
+def step_violations(
+    positions: np.ndarray,
+    times: np.ndarray,
+    names,
+    max_step_rad: float,
+    q_start=None,
+    budget: ListingBudget | None = None,
+) -> list:
     """Set-point changes per control tick larger than max_step_rad; q_start (the arm's current position), when
     given, is the set-point before the first sample."""
     prev = positions[:1] if q_start is None else np.asarray(q_start, dtype=np.float64).reshape(1, -1)
     steps = np.diff(np.vstack([prev, positions]), axis=0)
     out = []
-    for k, j in zip(*np.nonzero(_exceeds(np.abs(steps), max_step_rad)), strict=True):
+    for k, j in _listed(np.nonzero(exceeds(np.abs(steps), max_step_rad)), "step", budget):
         s = float(steps[k, j])
         out.append(
             Violation(
@@ -96,13 +126,15 @@ def step_violations(positions: np.ndarray, times: np.ndarray, names, max_step_ra
                 (names[j],),
                 s,
                 max_step_rad,
-                f"{names[j]} jumps {s:.4f} rad in one tick (max {max_step_rad} rad)",
+                f"{names[j]} jumps {_rad(s)} rad in one tick (max {max_step_rad} rad)",
             )
         )
     return out
 
 
-def tcp_speed_violations(tcp_positions: np.ndarray, dt: float, max_speed: float, tcp_name: str) -> list:
+def tcp_speed_violations(
+    tcp_positions: np.ndarray, dt: float, max_speed: float, tcp_name: str, budget: ListingBudget | None = None
+) -> list:
     speed = np.linalg.norm(np.diff(tcp_positions, axis=0), axis=1) / dt
     return [
         Violation(
@@ -113,5 +145,5 @@ def tcp_speed_violations(tcp_positions: np.ndarray, dt: float, max_speed: float,
             max_speed,
             f"TCP speed {speed[k]:.3f} m/s exceeds {max_speed} m/s",
         )
-        for k in np.flatnonzero(_exceeds(speed, max_speed))
+        for (k,) in _listed(np.nonzero(exceeds(speed, max_speed)), "tcp_speed", budget)
     ]

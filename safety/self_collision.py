@@ -30,6 +30,7 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
+from drivers.files import load_yaml
 from safety.backend_coal import add_primitive
 from safety.geometry import Primitive, robot_primitives
 from safety.robot_model import RobotModel
@@ -57,8 +58,7 @@ def candidate_pairs(robot: RobotModel, prims: list[Primitive]) -> list[tuple[int
 
 def load_certified_distances(path: Path = DISTANCES_FILE) -> dict[tuple[str, str], float | None]:
     """Certified lower bound per candidate pair (None: the pair can touch, or was not certified)."""
-    with open(path) as f:
-        doc = yaml.safe_load(f)
+    doc = load_yaml(path, "certified distances")
     return {(row[0], row[1]): (None if row[3] is None else float(row[3])) for row in doc["pairs"]}
 
 

@@ -1,8 +1,13 @@
-"""What the gate reports: every violation with its time, kind, the joints or links involved and the numbers."""
+"""What the gate reports: every violation with its time, kind, the joints or links involved and the numbers.
+
+A trajectory wrong everywhere would report millions of violations; at most MAX_LISTED_PER_KIND of each kind (the
+first found, in time order) are listed and the rest counted (`GateReport.omitted`), so memory stays bounded.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from typing import Literal
 
 ViolationKind = Literal[
@@ -16,7 +21,9 @@ ViolationKind = Literal[
     "collision",
     "step",
     "tcp_speed",
+    "unchecked",  # beyond what the gate checks (samples, collision checks): refused without a verdict
 ]
+MAX_LISTED_PER_KIND = 1000
 
 
 @dataclass(frozen=True)
@@ -34,9 +41,31 @@ class Violation:
             "kind": self.kind,
             "detail": self.detail,
             "names": list(self.names),
-            "value": self.value,
-            "limit": self.limit,
+            "value": _finite_or_none(self.value),
+            "limit": _finite_or_none(self.limit),
         }
+
+
+def _finite_or_none(x: float | None) -> float | None:
+    """JSON has no inf/NaN (an absurd input's derivative overflows); the detail sentence keeps the number."""
+    return x if x is None or math.isfinite(x) else None
+
+
+@dataclass
+class ListingBudget:
+    """How many more violations of each kind may be listed; those beyond are only counted in `omitted`."""
+
+    per_kind: int = MAX_LISTED_PER_KIND
+    omitted: int = 0
+    _listed: dict[str, int] = field(default_factory=dict)
+
+    def take(self, kind: ViolationKind, hits: int) -> int:
+        """How many of `hits` new violations of `kind` to list (the first ones)."""
+        listed = self._listed.get(kind, 0)
+        n = max(0, min(hits, self.per_kind - listed))
+        self._listed[kind] = listed + n
+        self.omitted += hits - n
+        return n
 
 
 @dataclass(frozen=True)
@@ -45,6 +74,7 @@ class GateReport:
     samples: int  # trajectory samples
     configurations_checked: int  # collision checks including the sub-samples between samples
     seconds: float  # wall time the validation took
+    omitted: int = 0  # violations found but not listed (beyond MAX_LISTED_PER_KIND of one kind)
 
     @property
     def ok(self) -> bool:
@@ -58,8 +88,9 @@ class GateReport:
         if self.ok:
             return f"trajectory valid ({self.samples} samples, {self.configurations_checked} configurations checked)"
         first = "; ".join(f"t={v.time_s:.3f} s {v.kind}: {v.detail}" for v in self.violations[:limit])
-        more = len(self.violations) - limit
-        return f"{len(self.violations)} violations: {first}" + (f"; and {more} more" if more > 0 else "")
+        total = len(self.violations) + self.omitted
+        more = total - min(limit, len(self.violations))
+        return f"{total} violations: {first}" + (f"; and {more} more" if more > 0 else "")
 
     def to_dict(self) -> dict:
         return {
@@ -68,4 +99,5 @@ class GateReport:
             "samples": self.samples,
             "configurations_checked": self.configurations_checked,
             "violations": [v.to_dict() for v in self.violations],
+            "violations_omitted": self.omitted,
         }

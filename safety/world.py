@@ -8,22 +8,30 @@ WORLD.json (base frame, metres/radians; unknown keys are errors):
      "points_file": "cloud.npz",        # optional, npz with `points` (N, 3), base frame; relative to WORLD.json
      "held_object": {"kind": "box", "size": [...], "xyz": [...], "rpy": [...]},  # optional, in the TCP frame
      "gripper_width_m": 0.05}           # optional finger gap; default: open
+Every number is finite and physical: positions within the cell (drivers.config.CELL_EXTENT_M), sizes positive and
+at most 20 m, at most 1000 shapes of a kind. The points file is an .npz with the one array `points`, numeric,
+(N, 3) with N <= MAX_POINTS, finite and within the cell; its declared size is checked before it is loaded.
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from drivers.config import CELL_EXTENT_M, Position
+from drivers.files import InputFileError, load_json, read_npz
 from safety.config import BoxRegion, SafetyConfig
 from safety.geometry import WORLD, Primitive, pose, pose_rpy
 
 Vec3 = tuple[float, float, float]
-Positive = Annotated[float, Field(gt=0)]
+Positive = Annotated[float, Field(gt=0, le=20.0)]  # [m] a shape's size
+Near = Annotated[float, Field(ge=-2.0, le=2.0)]  # [m] an offset from the TCP
+MAX_SHAPES = 1000  # of each kind
+MAX_POINTS = 2_000_000  # a Femto Bolt frame has 1 M at most
+MAX_POINTS_FILE_BYTES = 256 * 2**20
 
 TABLE_THICKNESS_M = 0.1
 TABLE_HALF_EXTENT_M = 2.0  # the table is modelled as a 4 m x 4 m slab: bigger than any reach
@@ -34,22 +42,25 @@ class _Input(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
+Name = Annotated[str, Field(max_length=200)]
+
+
 class BoxIn(_Input):
-    name: str = ""
-    center: Vec3
+    name: Name = ""
+    center: Position
     size: tuple[Positive, Positive, Positive]
     rpy: Vec3 = (0.0, 0.0, 0.0)
 
 
 class SphereIn(_Input):
-    name: str = ""
-    center: Vec3
+    name: Name = ""
+    center: Position
     radius: Positive
 
 
 class CylinderIn(_Input):
-    name: str = ""
-    center: Vec3
+    name: Name = ""
+    center: Position
     radius: Positive
     length: Positive
     rpy: Vec3 = (0.0, 0.0, 0.0)
@@ -58,10 +69,12 @@ class CylinderIn(_Input):
 class HeldObjectIn(_Input):
     """Geometry of the object in the gripper, posed in the TCP frame."""
 
-    name: str = "held"
+    name: Name = "held"
     kind: Literal["box", "cylinder", "sphere"]
-    size: tuple[Positive, ...] = Field(description="box (sx, sy, sz); cylinder (radius, length); sphere (radius,)")
-    xyz: Vec3 = (0.0, 0.0, 0.0)
+    size: tuple[Annotated[float, Field(gt=0, le=2.0)], ...] = Field(
+        max_length=3, description="box (sx, sy, sz); cylinder (radius, length); sphere (radius,)"
+    )
+    xyz: tuple[Near, Near, Near] = (0.0, 0.0, 0.0)
     rpy: Vec3 = (0.0, 0.0, 0.0)
 
     @model_validator(mode="after")
@@ -76,12 +89,12 @@ class HeldObjectIn(_Input):
 
 
 class WorldDescription(_Input):
-    boxes: tuple[BoxIn, ...] = ()
-    spheres: tuple[SphereIn, ...] = ()
-    cylinders: tuple[CylinderIn, ...] = ()
-    points_file: str | None = None
+    boxes: tuple[BoxIn, ...] = Field(default=(), max_length=MAX_SHAPES)
+    spheres: tuple[SphereIn, ...] = Field(default=(), max_length=MAX_SHAPES)
+    cylinders: tuple[CylinderIn, ...] = Field(default=(), max_length=MAX_SHAPES)
+    points_file: Annotated[str, Field(min_length=1, max_length=4096)] | None = None
     held_object: HeldObjectIn | None = None
-    gripper_width_m: Annotated[float, Field(ge=0)] | None = None
+    gripper_width_m: Annotated[float, Field(ge=0, le=1.0)] | None = None
 
     def obstacles(self) -> list[Primitive]:
         out = [
@@ -99,36 +112,55 @@ class WorldDescription(_Input):
         return out
 
 
-class WorldFileError(ValueError):
-    """WORLD.json or its points file is unusable; the message names the file and the problem."""
+class WorldFileError(InputFileError):
+    """WORLD.json or its points file is unusable; it names the file, the key and the problem."""
 
 
 def load_world_file(path: Path) -> tuple[WorldDescription, np.ndarray | None]:
     """Read and validate WORLD.json and its optional point cloud (base frame, (N, 3) finite)."""
     try:
-        desc = WorldDescription.model_validate(json.loads(Path(path).read_text()))
-    except (OSError, json.JSONDecodeError) as e:
-        raise WorldFileError(f"{path}: cannot read world JSON: {e}") from e
+        data = load_json(path, "world JSON", max_values=100_000)
+    except InputFileError as e:
+        raise WorldFileError(e.file, e.problem, e.key, e.line, e.column) from None
+    try:
+        desc = WorldDescription.model_validate(data)
     except ValidationError as e:
-        raise WorldFileError(f"{path}: invalid world description: {_first_errors(e)}") from e
+        errors = e.errors(include_url=False)
+        keys = [".".join(str(x) for x in err["loc"]) or "<root>" for err in errors]
+        problems = "; ".join(f"{k}: {err['msg']}" for k, err in zip(keys[:3], errors, strict=False))
+        raise WorldFileError(path, f"invalid world description: {problems}", keys[0]) from None
     if desc.points_file is None:
         return desc, None
-    cloud_path = (Path(path).parent / desc.points_file).resolve()
     try:
-        with np.load(cloud_path) as npz:
-            points = np.asarray(npz["points"], dtype=np.float64)
-    except (OSError, KeyError, ValueError) as e:
-        raise WorldFileError(f"{path}: points_file {cloud_path}: cannot read array 'points': {e}") from e
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise WorldFileError(f"{cloud_path}: points must be (N, 3), got {points.shape}")
+        cloud_path = (Path(path).parent / desc.points_file).resolve()
+    except (OSError, ValueError, RuntimeError) as e:
+        raise WorldFileError(path, f"not a usable path ({e})", "points_file") from None
+    try:
+        return desc, load_points_file(cloud_path)
+    except InputFileError as e:  # named from WORLD.json, whose points_file it is
+        where = f"{e.key}: " if e.key else ""
+        raise WorldFileError(path, f"{cloud_path}: {where}{e.problem}", "points_file") from None
+
+
+def _points_header(key: str, shape: tuple[int, ...], dtype: np.dtype) -> None:
+    if key != "points":
+        raise ValueError("unknown key (a points file holds only `points`)")
+    if dtype.kind not in "fiu" or len(shape) != 2 or shape[1] != 3 or shape[0] > MAX_POINTS:
+        raise ValueError(f"must be numeric (N, 3) with N <= {MAX_POINTS:,}, got {dtype} {shape}")
+
+
+def load_points_file(path: Path) -> np.ndarray:
+    """`points` (N, 3) [m, base frame] of an .npz, as float64, finite and within the cell; InputFileError if not."""
+    arrays = read_npz(path, "points file", MAX_POINTS_FILE_BYTES, MAX_POINTS * 3 * 8, _points_header)
+    if "points" not in arrays:
+        raise InputFileError(path, "missing (an .npz with the array `points`, N x 3)", "points")
+    points = arrays["points"].astype(np.float64)
     if not np.all(np.isfinite(points)):
-        raise WorldFileError(f"{cloud_path}: points contain NaN or inf")
-    return desc, points
-
-
-def _first_errors(e: ValidationError, limit: int = 3) -> str:
-    parts = [f"{'.'.join(str(x) for x in err['loc']) or '<root>'}: {err['msg']}" for err in e.errors()[:limit]]
-    return "; ".join(parts)
+        raise InputFileError(path, "contains NaN or inf", "points")
+    far = float(np.abs(points).max(initial=0.0))
+    if far > CELL_EXTENT_M:
+        raise InputFileError(path, f"a coordinate of {far:.4g} m lies outside the cell (+-{CELL_EXTENT_M} m)", "points")
+    return points
 
 
 def table_primitive() -> Primitive:

@@ -7,8 +7,9 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from drivers.files import load_yaml
 
 DEFAULT_SPEC = Path(__file__).with_name("xarm7_gripper.yaml")
 
@@ -190,5 +191,4 @@ def rotation_z_to(direction: np.ndarray) -> np.ndarray:
 
 @cache
 def load_robot_spec(path: Path = DEFAULT_SPEC) -> RobotSpec:
-    with open(path) as f:
-        return RobotSpec.model_validate(yaml.safe_load(f))
+    return RobotSpec.model_validate(load_yaml(path, "robot description"))

@@ -27,6 +27,7 @@ class SimArm(Arm):
         self.joint_names = world.spec.joint_names
         self._lower, self._upper = world.spec.lower, world.spec.upper
         self._period = 1.0 / control_rate_hz
+        self.max_joint_speed_rad_s = CONTROLLER_MAX_JOINT_SPEED  # a controller in reduced mode lowers it
         self._connected = False
         self._stopped = False
         self._fault = 0
@@ -102,7 +103,7 @@ class SimArm(Arm):
                 )
             elapsed = max(w.time - self._last_cmd_time, self._period)
             speed = np.abs(q - self._last_cmd) / elapsed
-            if np.any(speed > CONTROLLER_MAX_JOINT_SPEED * SPEED_TOLERANCE):
+            if np.any(speed > self.max_joint_speed_rad_s * SPEED_TOLERANCE):
                 j = int(np.argmax(speed))
                 raise self._trip(24, f"{self.joint_names[j]} set-point implies {speed[j]:.2f} rad/s")
             w.data.ctrl[w.arm_act] = q

@@ -12,12 +12,13 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-import yaml
 from pydantic import Field, ValidationError
 
 from drivers.config import StrictModel
+from drivers.files import InputFileError, load_yaml
+from drivers.sim.footprint import disc, footprint_gap, moved, rectangle
 
-COLORS: dict[str, tuple[float, float, float]] = {
+BASE_COLORS: dict[str, tuple[float, float, float]] = {
     "red": (0.85, 0.12, 0.10),
     "green": (0.15, 0.65, 0.20),
     "blue": (0.12, 0.30, 0.85),
@@ -31,9 +32,24 @@ COLORS: dict[str, tuple[float, float, float]] = {
     "pink": (0.95, 0.55, 0.70),
     "cyan": (0.10, 0.75, 0.80),
 }
+# shades of the chromatic colours: "dark_blue" is blue at 55 % of its brightness, "light_blue" blue 25 % of the way
+# to white; a shade keeps its colour's name (a dark blue block is a blue block)
+SHADED = ("red", "green", "blue", "yellow", "orange", "purple", "pink", "cyan")
+COLORS: dict[str, tuple[float, float, float]] = (
+    BASE_COLORS
+    | {f"dark_{n}": tuple(round(0.55 * c, 4) for c in BASE_COLORS[n]) for n in SHADED}
+    | {f"light_{n}": tuple(round(c + 0.25 * (1 - c), 4) for c in BASE_COLORS[n]) for n in SHADED}
+)
 OBJECT_CONTACT = {"contype": "1", "conaffinity": "3"}
 OBJECT_FRICTION = "1.0 0.01 0.001"
-SPHERE_FRICTION = "1.0 0.01 0.003"  # sliding, torsional, rolling [m]: a tomato rolls only a little
+# sliding, torsional, rolling [m] of what can roll (a ball, a body of revolution on its side): rolling resistance
+# like a soft fruit's or a label's; an ideal round body lying on a plane rolls away at the slightest asymmetry of
+# its contacts (a lying bottle drifted 33 mm in 15 s without it)
+ROLLING_FRICTION = "1.0 0.01 0.003"
+PAN_HANDLE_M = (0.14, 0.024, 0.016)  # length, width, thickness; it starts at the pan's rim
+WALL_M = 0.008  # pan and bowl walls, lidded box walls and lid
+RING_SEGMENTS = 20  # boxes making a pan's or a bowl's circular wall
+DEFAULT_HEIGHT_M = {"cylinder": 0.1, "plate": 0.015, "bottle": 0.22, "pan": 0.04, "bowl": 0.07}
 
 
 class SceneError(ValueError):
@@ -62,14 +78,27 @@ class SceneObject(StrictModel):
             return self.fixed
         return self.kind in ("pan", "bowl", "platform", "lidded_box")
 
-    def footprint_radius(self) -> float:
-        """Radius of a vertical cylinder around the object, for non-overlap checks."""
-        if self.size_m is not None:
-            return 0.5 * math.hypot(self.size_m[0], self.size_m[1])
-        r = self.radius_m or 0.03
-        if self.lying:
-            return max(r, 0.5 * (self.height_m or 0.1))
-        return r + (0.05 if self.kind == "pan" else 0.0)
+    def footprint(self) -> list[np.ndarray]:
+        """The table area the object covers, as convex polygons [m] in its own frame (x, y before the yaw)."""
+        if self.kind in ("box", "platform"):
+            sx, sy, _ = self.size_m
+            return [rectangle(-sx / 2, sx / 2, -sy / 2, sy / 2)]
+        if self.kind == "lidded_box":  # an open lid leaning past upright reaches behind the box
+            sx, sy, _ = self.size_m
+            behind = min(0.0, sx * math.cos(math.radians(self.lid_open_deg))) - WALL_M
+            return [rectangle(-sx / 2 + behind, sx / 2, -sy / 2 - 0.004, sy / 2 + 0.004)]
+        r = self.radius_m
+        if self.lying:  # the body of revolution's axis lies along x
+            h = self.height_m or DEFAULT_HEIGHT_M[self.kind]
+            return [rectangle(-h / 2, h / 2, -r, r)]
+        if self.kind in ("pan", "bowl"):
+            segment = r * math.tan(math.pi / RING_SEGMENTS) + 0.001  # the wall's boxes stick out at their corners
+            outline = [disc(math.hypot(r + WALL_M / 2, segment))]
+            if self.kind == "pan":
+                length, width, _ = PAN_HANDLE_M
+                outline.append(rectangle(r, r + length, -width / 2, width / 2))
+            return outline
+        return [disc(r)]
 
 
 class Randomisation(StrictModel):
@@ -88,11 +117,9 @@ class Scene(StrictModel):
 
 def load_scene(path: Path) -> Scene:
     try:
-        data = yaml.safe_load(Path(path).read_text())
-    except OSError as e:
-        raise SceneError(f"{path}: cannot read scene ({e.strerror})") from None
-    except yaml.YAMLError as e:
-        raise SceneError(f"{path}: invalid YAML ({e})") from None
+        data = load_yaml(Path(path), "scene")
+    except InputFileError as e:
+        raise SceneError(str(e)) from None
     try:
         scene = Scene.model_validate(data)
     except ValidationError as e:
@@ -123,31 +150,45 @@ def load_scene(path: Path) -> Scene:
 
 
 def place(scene: Scene, seed: int) -> dict[str, tuple[float, float, float]]:
-    """Seeded placement: (x, y, yaw) per object, jittered around its nominal pose without overlaps."""
+    """Seeded placement: (x, y, yaw) per object, jittered around its nominal pose, footprints kept apart by
+    `min_gap_m`. Raises SceneError naming the pair that kept overlapping when no placement is found."""
     rng = np.random.default_rng(seed)
     r = scene.randomise
+    clashes: dict[tuple[str, str, float], int] = {}
     for _ in range(r.max_tries):
         poses: dict[str, tuple[float, float, float]] = {}
         for o in scene.objects:
             dx, dy = rng.uniform(-r.xy_jitter_m, r.xy_jitter_m, 2) if o.jitter else (0.0, 0.0)
             dyaw = rng.uniform(-r.yaw_jitter_deg, r.yaw_jitter_deg) if o.jitter else 0.0
             poses[o.name] = (o.xy_m[0] + dx, o.xy_m[1] + dy, math.radians(o.yaw_deg + dyaw))
-        if _no_overlap(scene, poses, r.min_gap_m):
+        clash = first_clash(scene.objects, poses, r.min_gap_m)
+        if clash is None:
             return poses
+        clashes[clash] = clashes.get(clash, 0) + 1
+    a, b, gap_m = max(clashes, key=clashes.get)
     raise SceneError(
-        f"scene {scene.name}: no overlap-free placement in {r.max_tries} tries with seed {seed}; "
-        "reduce xy_jitter_m or move objects apart"
+        f"scene {scene.name}: no placement with seed {seed} keeps the footprints {r.min_gap_m * 1000:.0f} mm apart "
+        f"in {r.max_tries} tries: {a} and {b} come within {gap_m * 1000:.0f} mm of each other (by their outlines: "
+        "handles, lying bodies and open lids count); move them apart or reduce xy_jitter_m"
     )
 
 
-def _no_overlap(scene: Scene, poses: dict[str, tuple[float, float, float]], gap: float) -> bool:
-    objs = scene.objects
-    for i, a in enumerate(objs):
-        for b in objs[i + 1 :]:
-            d = math.dist(poses[a.name][:2], poses[b.name][:2])
-            if d < a.footprint_radius() + b.footprint_radius() + gap:
-                return False
-    return True
+def placed_footprint(o: SceneObject, pose: tuple[float, float, float]) -> list[np.ndarray]:
+    """The object's footprint polygons in the table frame at pose (x, y, yaw)."""
+    return [moved(p, *pose) for p in o.footprint()]
+
+
+def first_clash(
+    objects: tuple[SceneObject, ...], poses: dict[str, tuple[float, float, float]], gap_m: float
+) -> tuple[str, str, float] | None:
+    """The first pair of objects whose footprints come closer than gap_m, with their distance, or None."""
+    outlines = {o.name: placed_footprint(o, poses[o.name]) for o in objects}
+    for i, a in enumerate(objects):
+        for b in objects[i + 1 :]:
+            d = footprint_gap(outlines[a.name], outlines[b.name])
+            if d < gap_m:
+                return a.name, b.name, d
+    return None
 
 
 def _f(values) -> str:
@@ -196,7 +237,7 @@ def _ring(
     wall: float,
     z0: float,
     first_index: int,
-    n: int = 20,
+    n: int = RING_SEGMENTS,
 ) -> None:
     """A circular wall of n boxes (pan and bowl sides)."""
     seg = 2 * radius * math.tan(math.pi / n) + 0.002
@@ -240,7 +281,6 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
         else:
             _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, sz / 2)), pos=_f((0, 0, sz / 2)), mass=mass)
     elif o.kind == "sphere":
-        # rolling resistance like a soft fruit's (an ideal ball released anywhere rolls on for ever)
         _geom(
             body,
             o,
@@ -251,11 +291,12 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
             pos=_f((0, 0, o.radius_m)),
             mass=mass,
             condim="6",
-            friction=SPHERE_FRICTION,
+            friction=ROLLING_FRICTION,
         )
     elif o.kind in ("cylinder", "plate", "bottle"):
         r = o.radius_m
-        h = o.height_m or {"cylinder": 0.1, "plate": 0.015, "bottle": 0.22}[o.kind]
+        h = o.height_m or DEFAULT_HEIGHT_M[o.kind]
+        rolls = {"condim": "6", "friction": ROLLING_FRICTION} if o.lying else {}
         if o.lying:
             pos, euler = (0, 0, r), (0, math.pi / 2, 0)
         else:
@@ -272,6 +313,7 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
                 size=_f((r, body_h / 2)),
                 pos=_f((0, 0, -h / 2 + body_h / 2)),
                 mass=_f(o.mass_kg * 0.85),
+                **rolls,
             )
             _geom(
                 inner,
@@ -282,19 +324,31 @@ def add_object(worldbody: ET.Element, asset: ET.Element, o: SceneObject, pose: t
                 size=_f((r * 0.45, h * 0.15)),
                 pos=_f((0, 0, -h / 2 + body_h + h * 0.15)),
                 mass=_f(o.mass_kg * 0.15),
+                **rolls,
             )
         else:
-            _geom(body, o, 0, mat, type="cylinder", size=_f((r, h / 2)), pos=_f(pos), euler=_f(euler), mass=mass)
+            _geom(
+                body, o, 0, mat, type="cylinder", size=_f((r, h / 2)), pos=_f(pos), euler=_f(euler), mass=mass, **rolls
+            )
     elif o.kind in ("pan", "bowl"):
         r = o.radius_m
-        h = o.height_m or (0.04 if o.kind == "pan" else 0.07)
-        _geom(body, o, 0, mat, type="cylinder", size=_f((r, 0.004)), pos="0 0 0.004", mass=mass)
-        _ring(body, o, mat, r, h, 0.008, 0.008, first_index=1)
+        h = o.height_m or DEFAULT_HEIGHT_M[o.kind]
+        _geom(body, o, 0, mat, type="cylinder", size=_f((r, WALL_M / 2)), pos=_f((0, 0, WALL_M / 2)), mass=mass)
+        _ring(body, o, mat, r, h, WALL_M, WALL_M, first_index=1)
         if o.kind == "pan":
-            _geom(body, o, 30, mat, type="box", size="0.07 0.012 0.008", pos=_f((r + 0.07, 0, h * 0.8)))
+            length, width, thick = PAN_HANDLE_M
+            _geom(
+                body,
+                o,
+                30,
+                mat,
+                type="box",
+                size=_f((length / 2, width / 2, thick / 2)),
+                pos=_f((r + length / 2, 0, h * 0.8)),
+            )
     elif o.kind == "lidded_box":
         sx, sy, sz = o.size_m
-        w = 0.008
+        w = WALL_M
         _geom(body, o, 0, mat, type="box", size=_f((sx / 2, sy / 2, w / 2)), pos=_f((0, 0, w / 2)), mass=mass)
         for k, (px, py, hx, hy) in enumerate(
             (

@@ -20,8 +20,9 @@ from scipy.spatial.transform import Rotation
 from drivers.config import CameraConfig, SimBoardConfig, SimConfig
 from drivers.description import RobotSpec, load_robot_spec
 from drivers.description.mjcf import add_robot
+from drivers.sim.generate import scene_for
 from drivers.sim.gl import mujoco
-from drivers.sim.scene import Scene, add_object, load_scene, place
+from drivers.sim.scene import Scene, add_object, place
 
 TABLE_SIZE_M = (1.4, 1.6, 0.04)
 TABLE_CENTER_XY_M = (0.3, 0.0)
@@ -176,7 +177,7 @@ class SimWorld:
         self.config = sim
         self.camera_config = camera
         self.spec = spec or load_robot_spec()
-        self.scene = load_scene(sim.scene_file)
+        self.scene = scene_for(sim)
         self.poses = place(self.scene, sim.seed)
         self.xml = build_mjcf(self.spec, self.scene, self.poses, camera, sim.physics_dt_s, sim.board)
         self.model = mujoco.MjModel.from_xml_string(self.xml)
@@ -274,6 +275,11 @@ class SimWorld:
         self._running.set()
         self._thread = threading.Thread(target=self._run, name="sim-physics", daemon=True)
         self._thread.start()
+
+    @property
+    def physics_thread_id(self) -> int | None:
+        """The OS thread id of the real-time physics thread (None before start() or when stepped)."""
+        return self._thread.native_id if self._thread is not None else None
 
     def stop(self) -> None:
         self._running.clear()

@@ -3,6 +3,11 @@
 The SDK speaks degrees and millimetres; this class is the only place that converts (radians/metres outside).
 Every SDK call's code goes through `codes.check`, so the layers above see the typed errors of drivers.errors.
 `connect()` is all-or-nothing; `close()` always tries every release step (stop, leave servo mode, disconnect).
+
+The 'real' report carries joint angles, TCP pose, mode and state, but no joint speeds and no error code (the SDK
+fills those only from its slower reports or from get_err_warn_code): joint speeds are the difference of
+successive reports over the controller's fixed report period, and when a report shows the controller stopped
+(state 4) without this driver having stopped it, the error code is asked for once over the command link.
 """
 
 from __future__ import annotations
@@ -10,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import io
 import logging
+import os
 import time
 from collections.abc import Callable
 from typing import Any
@@ -31,7 +37,9 @@ POSITION_MODE = 0
 STOP_STATE = 4
 READY_STATES = (0, 1, 2)  # 1 moving, 2 ready/sleeping; 0 just after set_state(0)
 READY_TIMEOUT_S = 1.0
+REPORT_PERIOD_S = 0.01  # the controller sends the 'real' report at a fixed 100 Hz
 STEP_SLACK = 1.5  # the executor keeps steps within safety.max_joint_step_rad; re-timing may exceed it slightly
+SDK_THREAD_PRIORITY = 11  # SCHED_FIFO of the SDK's receive threads: just above the executor's streaming thread (10)
 
 ApiFactory = Callable[..., Any]
 
@@ -40,7 +48,27 @@ def sdk_api_factory(ip: str, **kwargs: Any) -> Any:
     """The real XArmAPI (imported here: the SDK is optional and prints its version on import)."""
     with contextlib.redirect_stdout(io.StringIO()):
         from xarm.wrapper import XArmAPI
-    return XArmAPI(ip, **kwargs)
+    # forbid_uds: the SDK would otherwise use a UNIX socket in /tmp named by port only (the controller's own local
+    # link), bypassing the configured address
+    return XArmAPI(ip, forbid_uds=True, **kwargs)
+
+
+def prioritise_sdk_threads(api: Any) -> bool:
+    """Real-time priority for the SDK's threads that receive replies and the 100 Hz report, when permitted (root
+    or CAP_SYS_NICE). The executor stops on a joint state older than 0.1 s: on a loaded PC these normal threads
+    were measured 0.1-0.7 s late, behind a streaming thread that has real-time priority. Private SDK attributes
+    (xarm-python-sdk 1.18); a report link the SDK re-opens later runs at normal priority again."""
+    inner = getattr(api, "_arm", None)
+    raised = []
+    for name in ("_stream", "_stream_report", "_report_thread"):
+        tid = getattr(getattr(inner, name, None), "native_id", None)
+        if tid is None:
+            continue
+        with contextlib.suppress(OSError, AttributeError):
+            os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(SDK_THREAD_PRIORITY))
+            raised.append(name)
+    log.debug("xArm SDK threads at real-time priority: %s", raised or "none (not permitted)")
+    return len(raised) == 3
 
 
 class XArm7(Arm):
@@ -63,6 +91,9 @@ class XArm7(Arm):
         self._last_q: np.ndarray | None = None  # last set-point sent; None: compare with the measured position
         self.report_count = 0  # 100 Hz state reports received (report_type 'real')
         self._report_stamp = 0.0  # time.monotonic() of the last one
+        self._report_q: np.ndarray | None = None  # joints of the last report [rad]
+        self._report_qd = np.zeros(len(self.joint_names))
+        self._asked_why_stopped = False  # the error code was read for the current state-4 episode
         self.last_servo_call_s = 0.0
 
     # -- lifecycle ----------------------------------------------------------------------------------------
@@ -91,6 +122,7 @@ class XArm7(Arm):
                 self._on_report, report_cartesian=False, report_mtable=False, report_mtbrake=False, report_cmd_num=False
             )
             self.firmware_version = str(check(api, "get_version", api.get_version()))
+            prioritise_sdk_threads(api)
             self._enable(POSITION_MODE)
             controller_safety.apply(api, self.controller_safety)
             self._enable(SERVO_MODE)
@@ -176,7 +208,15 @@ class XArm7(Arm):
 
     # -- state and commands -------------------------------------------------------------------------------
     def _on_report(self, data: dict) -> None:
-        """SDK report thread, 100 Hz: the time of the newest state (the executor stops on a stale one)."""
+        """SDK report thread, 100 Hz: the time of the newest state (the executor stops on a stale one) and the
+        joint speeds from the change since the previous report."""
+        if "joints" in data:
+            q = np.radians(np.asarray(data["joints"], dtype=np.float64)[: len(self.joint_names)])
+            if self._report_q is not None:
+                self._report_qd = (q - self._report_q) / REPORT_PERIOD_S
+            self._report_q = q
+        if data.get("state") != STOP_STATE:
+            self._asked_why_stopped = False
         self._report_stamp = time.monotonic()
         self.report_count += 1
 
@@ -186,8 +226,10 @@ class XArm7(Arm):
         api = self._require("read_state()")
         n = len(self.joint_names)
         q = np.radians(np.asarray(api.angles, dtype=np.float64)[:n])
-        qd = np.radians(np.asarray(api.realtime_joint_speeds, dtype=np.float64)[:n])
-        return JointState(self.joint_names, q, qd, self._report_stamp, int(api.error_code or 0))
+        if api.state == STOP_STATE and not self._stopped and not self._asked_why_stopped:
+            self._asked_why_stopped = True
+            controller_codes(api)  # refreshes api.error_code, which the 'real' report does not carry
+        return JointState(self.joint_names, q, self._report_qd.copy(), self._report_stamp, int(api.error_code or 0))
 
     def servo(self, q: np.ndarray) -> None:
         api = self._require("servo()")

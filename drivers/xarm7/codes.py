@@ -31,7 +31,10 @@ def controller_codes(api: Any) -> tuple[int, int]:
 
 def check(api: Any, call: str, result: Any) -> Any:
     """Raise the driver error for a call's API code; return the payload of `(code, value)` results."""
-    code, value = (result[0], result[1]) if isinstance(result, tuple | list) else (result, None)
+    if isinstance(result, tuple | list):  # (code, value), or [code] (the SDK's set_fence_mode returns its raw reply)
+        code, value = result[0], (result[1] if len(result) > 1 else None)
+    else:
+        code, value = result, None
     if code == 0 or code is None:
         return value
     if code == 2:

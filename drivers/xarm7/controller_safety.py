@@ -3,11 +3,16 @@
 The runtime's gate already refuses anything outside the workspace or the speed limits; these settings make the
 controller itself stop the arm (errors 31 collision, 35 fence) if something gets past it. The same values are
 read back by `goalvla doctor` to show they were applied. Units at the SDK: mm, degrees.
+
+The TCP offset cannot be read back (the 'real' report does not carry it; the SDK's `tcp_offset` stays zero), so
+it is checked by its effect: the TCP position the controller reports must match the project's kinematics at the
+reported joints.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,6 +24,11 @@ from drivers.xarm7.codes import check
 
 XARM_GRIPPER_TOOL_MODEL = 1  # set_collision_tool_model: 1 = xArm Gripper
 TOLERANCE = {"mm": 1.0, "deg_s": 0.5, "mm_s": 1.0}
+# Controller TCP vs the project's FK: each arm's factory calibration moves it by a few mm from the nominal model;
+# a missing or mis-scaled offset (172 mm) or a wrong base frame is far outside.
+TCP_TOLERANCE_MM = 5.0
+
+TcpFromJoints = Callable[[np.ndarray], np.ndarray]  # joints [rad] -> TCP position in the base frame [m]
 
 
 @dataclass(frozen=True)
@@ -40,7 +50,7 @@ class ControllerSafety:
         tcp = next(j for j in spec.fixed_joints if j.child == spec.tcp_link)
         return cls(
             collision_sensitivity=robot.collision_sensitivity,
-            tcp_boundary_mm=(hi[0], lo[0], hi[1], lo[1], hi[2], lo[2]),
+            tcp_boundary_mm=tuple(float(v) for v in (hi[0], lo[0], hi[1], lo[1], hi[2], lo[2])),
             max_joint_speed_deg_s=math.degrees(safety.max_joint_velocity_rad_s),
             max_tcp_speed_mm_s=safety.max_tcp_speed_m_s * 1000.0,
             tcp_offset_mm=tuple(float(v) * 1000.0 for v in tcp.xyz),
@@ -64,8 +74,9 @@ def apply(api: Any, s: ControllerSafety) -> None:
     check(api, "set_state", api.set_state(0))  # the SDK asks for set_state(0) after changing the sensitivity
 
 
-def verify(api: Any, s: ControllerSafety) -> list[str]:
-    """Read the settings back; returns a list of mismatches (empty: all applied)."""
+def verify(api: Any, s: ControllerSafety, tcp_from_joints: TcpFromJoints | None = None) -> list[str]:
+    """Read the settings back; returns a list of mismatches (empty: all applied). With `tcp_from_joints` the
+    controller's reported TCP position is compared with it at the reported joints (the TCP offset's effect)."""
     states = check(api, "get_reduced_states", api.get_reduced_states(is_radian=False))
     problems: list[str] = []
     if not states or not states[0]:
@@ -78,7 +89,14 @@ def verify(api: Any, s: ControllerSafety) -> list[str]:
         problems.append(f"reduced TCP speed {states[2]} mm/s above {s.max_tcp_speed_mm_s} mm/s")
     if len(states) > 3 and states[3] > s.max_joint_speed_deg_s + TOLERANCE["deg_s"]:
         problems.append(f"reduced joint speed {states[3]} deg/s above {s.max_joint_speed_deg_s:.1f} deg/s")
-    offset = getattr(api, "tcp_offset", None)
-    if offset is not None and not np.allclose(list(offset)[:3], s.tcp_offset_mm, atol=TOLERANCE["mm"]):
-        problems.append(f"TCP offset {list(offset)[:3]} mm, expected {list(s.tcp_offset_mm)} mm")
+    if tcp_from_joints is not None:
+        reported = np.asarray(api.position, dtype=np.float64)[:3]
+        expected = 1000.0 * np.asarray(tcp_from_joints(np.radians(np.asarray(api.angles, dtype=np.float64)[:7])))
+        miss = float(np.linalg.norm(reported - expected))
+        if miss > TCP_TOLERANCE_MM:
+            problems.append(
+                f"controller TCP at {np.round(reported, 1).tolist()} mm, the model puts it at "
+                f"{np.round(expected, 1).tolist()} mm ({miss:.1f} mm apart): TCP offset {list(s.tcp_offset_mm)} mm "
+                "not applied, or the wrong robot model"
+            )
     return problems

@@ -17,8 +17,8 @@ ContactMode = Literal["grasp", "push", "hinge"]
 class ContactConfig(StrictModel):
     """Sampling, filtering and scoring of contact poses (lengths in metres, angles in degrees)."""
 
-    yaw_step_deg: float = Field(default=15.0, gt=0, description="closing-axis step of the grasp sweep")
-    side_approach_deg: tuple[float, ...] = (-30.0, 0.0, 30.0)
+    yaw_step_deg: float = Field(default=15.0, ge=1, le=90, description="closing-axis step of the grasp sweep")
+    side_approach_deg: tuple[float, ...] = Field(default=(-30.0, 0.0, 30.0), max_length=12)
     finger_clearance_m: float = Field(default=0.008, ge=0, description="free gap kept each side when opening")
     squeeze_m: float = Field(default=0.02, ge=0, description="commanded width below the object's width")
     grasp_depth_m: float = Field(default=0.04, gt=0, description="how far the TCP goes below the object top")
@@ -29,7 +29,7 @@ class ContactConfig(StrictModel):
     hinge_contact_fraction: float = Field(
         default=0.8, gt=0, le=1, description="arc push: contact this far out from the hinge, part extent = 1"
     )
-    hinge_step_deg: float = Field(default=10.0, gt=0, description="arc push: largest turn between via poses")
+    hinge_step_deg: float = Field(default=10.0, ge=1, le=45, description="arc push: largest turn between via poses")
     hinge_approach_deg: float = Field(
         default=25.0, ge=0, le=90, description="arc push: approach line's slant off the part's face, 0 = along it"
     )
@@ -40,11 +40,15 @@ class ContactConfig(StrictModel):
     hinge_min_turn_deg: float = Field(default=5.0, ge=0, description="hinge motion: smallest turn worth a push")
     collision_padding_m: float = Field(default=0.005, ge=0)
     place_lifts_m: tuple[float, ...] = Field(
-        default=(), description="grasp: heights above the goal pose the gripper passes setting the object down"
+        default=(),
+        max_length=10,
+        description="grasp: heights above the goal pose the gripper passes setting the object down",
     )
     placed_clearance_m: float = Field(default=0.004, ge=0, description="moved object vs other scene points")
-    ik_candidates: int = Field(default=12, ge=1, description="best geometric candidates checked for reachability")
-    keep: int = Field(default=5, ge=1, description="reachable plans returned")
+    ik_candidates: int = Field(
+        default=12, ge=1, le=200, description="best geometric candidates checked for reachability"
+    )
+    keep: int = Field(default=5, ge=1, le=50, description="reachable plans returned")
     weights: dict[str, float] = Field(
         default_factory=lambda: {"antipodal": 1.0, "centred": 0.7, "approach": 0.5, "reach": 0.5}
     )

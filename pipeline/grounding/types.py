@@ -19,18 +19,22 @@ class GroundingError(ValueError):
 class GroundingConfig(StrictModel):
     """Settings of our grounding (defaults tuned on bench/grounding.py)."""
 
-    work_width_px: int | None = Field(default=None, ge=32, description="ground on images resized to this width")
-    max_source_pixels: int = Field(default=1500, ge=10, description="object pixels of the initial image matched")
+    work_width_px: int | None = Field(
+        default=None, ge=32, le=3840, description="ground on images resized to this width"
+    )
+    max_source_pixels: int = Field(
+        default=1500, ge=10, le=100_000, description="object pixels of the initial image matched"
+    )
     mutual: bool = Field(default=True, description="keep only mutual nearest neighbours")
     min_similarity: float = Field(default=0.6, ge=-1, le=1, description="cosine similarity below this is dropped")
     consistency_rel: float = Field(default=0.08, gt=0, description="pairwise distance tolerance / object size")
     min_consistency: float = Field(default=0.25, ge=0, le=1, description="share of matches a match must agree with")
-    ransac_iterations: int = Field(default=2000, ge=10)
+    ransac_iterations: int = Field(default=2000, ge=10, le=100_000)
     inlier_rel: float = Field(default=0.06, gt=0, description="RANSAC inlier threshold / object size")
     inlier_min_m: float = Field(default=0.004, gt=0)
-    hypotheses: int = Field(default=6, ge=1, description="RANSAC hypotheses verified against the images")
-    sweep_hypotheses: int = Field(default=20, ge=0, description="geometric sweep hypotheses verified likewise")
-    refine_top: int = Field(default=8, ge=1, description="hypotheses refined by ICP after a coarse view check")
+    hypotheses: int = Field(default=6, ge=1, le=100, description="RANSAC hypotheses verified against the images")
+    sweep_hypotheses: int = Field(default=20, ge=0, le=500, description="geometric sweep hypotheses verified likewise")
+    refine_top: int = Field(default=8, ge=1, le=100, description="hypotheses refined by ICP after a coarse view check")
     min_view_score: float = Field(default=0.4, ge=0, le=1, description="refuse below this view agreement")
     min_inliers: int = Field(default=8, ge=3)
     min_inlier_ratio: float = Field(default=0.05, ge=0, le=1)

@@ -25,4 +25,4 @@ class DepthAnythingConfig(StrictModel):
 class Dinov2Config(StrictModel):
     model: str = Field(default="facebook/dinov2-small", description="hub id or local folder")
     device: str = "cpu"
-    short_side_px: int = Field(default=448, ge=14, description="image short side fed to the model")
+    short_side_px: int = Field(default=448, ge=14, le=2048, description="image short side fed to the model")

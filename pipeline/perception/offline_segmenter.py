@@ -1,16 +1,25 @@
-"""Offline segmenter for the simulator's objects: colour thresholds in HSV plus coarse shape cues.
+"""Offline segmenter for the simulator's objects: colour regions named in a shading-invariant way, each classified
+by shape into one of the sim's kinds.
 
 Works on the RGB image alone (never on simulator ground truth). A phrase names an object by colour and/or shape
-words ("the red block", "the plate"). Colour picks pixels; connected components are instances; shape words rank
-and filter them by silhouette cues (elongation, fill, aspect). Dark and gray objects (a pan, a black scale with a
-white weighing plate) are not one colour under the lights: their faces range from black to white, but all are
-unsaturated, unlike the wooden table. So for gray and black the instance is the unsaturated component that holds
-enough pixels of that colour, with its holes filled (a pan's rim encloses its floor and whatever lies on it).
-A part word ("the lid of the blue box") names a differently coloured part attached to the named object: the
-largest chromatic component, not of the object's own pixels, that touches the object's silhouette.
-Limits, by design of a no-model backend: brown is not separable from the wooden table, components touching the
-image border are ignored (the floor, the robot base), and white/gray/black objects compete with the white and
-gray robot links (shape words disambiguate).
+words ("the red block", "the scale", "the dark blue bottle"). The image is cut into colour regions
+(colour_regions.py: a colour is a hue on lit and shaded faces alike; white, gray and black are named per region);
+each region is of the kind its silhouette and inner edges fit best (shape_cues.py). A colour word keeps the
+regions of that colour; a shape word keeps those classified as one of its kinds ("box" is any box, a lidded one
+too; "block" and "cube" only a plain one), and with a colour word, when none of that colour is classified so,
+those of that colour that fit the shape best (at least loosely; when none does, every one of that colour: the
+colour decides and the shape only ranks). A shade word (dark, light) keeps, among several of the colour, the
+darker or paler ones; white stands for gray and gray for white when nothing is named so (a white lid in the
+shade, a gray one in the light). A lid of another colour is a part of its box, not an object of its own. A shape word
+alone keeps the regions of its kinds (when there is none, those fitting it well, the best within a margin; a
+moved object seen from another side can read as a neighbouring kind), so "the scale" is the scale, not every
+box-like thing.
+A part word ("the lid of the blue box") names the lid of the named object: a region of another colour attached
+to it from above (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the
+box's region (faces are the pieces between the edges inside it).
+Limits, by design of a no-model backend: brown is not separable from the wooden table, regions touching the
+image border are ignored (the floor, the robot base), touching objects of one colour and one saturation are one
+region, and a white scale has no plate of another shade to be told by.
 """
 
 from __future__ import annotations
@@ -21,70 +30,71 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from pipeline.perception.colour_regions import ACHROMATIC, CHROMATIC, Region, hsv, regions
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, box_of, check_rgb
+from pipeline.perception.shape_cues import classify
 
-# hue centre [deg], min saturation, min value
-CHROMATIC: dict[str, tuple[float, float, float]] = {
-    "red": (0.0, 0.55, 0.15),
-    "orange": (26.0, 0.75, 0.45),
-    "yellow": (50.0, 0.6, 0.35),
-    "green": (128.0, 0.45, 0.12),
-    "cyan": (184.0, 0.55, 0.2),
-    "blue": (222.0, 0.5, 0.12),
-    "purple": (282.0, 0.45, 0.12),
-    "pink": (335.0, 0.3, 0.45),
-}
-HUE_TOLERANCE_DEG = 14.0
-# max saturation, value range
-ACHROMATIC: dict[str, tuple[float, float, float]] = {
-    "white": (0.12, 0.80, 1.01),
-    "gray": (0.12, 0.25, 0.78),
-    "black": (1.0, 0.0, 0.10),
-}
-# gray/black instances: unsaturated components (max saturation) holding at least this fraction of the colour
-UNSATURATED_MAX_S = 0.15
-DARK_MIN_FRACTION = 0.1
 COLOUR_WORDS: dict[str, str] = {c: c for c in (*CHROMATIC, *ACHROMATIC)} | {"grey": "gray", "violet": "purple"}
-SHAPE_WORDS: dict[str, str] = {
-    "block": "box",
-    "cube": "box",
-    "brick": "box",
-    "box": "box",
-    "cylinder": "cylinder",
-    "can": "cylinder",
-    "ball": "sphere",
-    "sphere": "sphere",
-    "plate": "plate",
-    "dish": "plate",
-    "disc": "plate",
-    "bottle": "bottle",
-    "pan": "pan",
-    "bowl": "bowl",
-    "scale": "platform",
-    "platform": "platform",
-    "chest": "lidded_box",
+# what a shape word names: kinds of the simulator's objects
+SHAPE_WORDS: dict[str, frozenset[str]] = {
+    "block": frozenset({"box"}),
+    "cube": frozenset({"box"}),
+    "brick": frozenset({"box"}),
+    "box": frozenset({"box", "lidded_box"}),
+    "chest": frozenset({"lidded_box"}),
+    "cylinder": frozenset({"cylinder"}),
+    "can": frozenset({"cylinder"}),
+    "ball": frozenset({"sphere"}),
+    "sphere": frozenset({"sphere"}),
+    "plate": frozenset({"plate"}),
+    "dish": frozenset({"plate"}),
+    "disc": frozenset({"plate"}),
+    "bottle": frozenset({"bottle"}),
+    "pan": frozenset({"pan"}),
+    "bowl": frozenset({"bowl"}),
+    "scale": frozenset({"platform"}),
+    "platform": frozenset({"platform"}),
 }
 PART_WORDS = ("lid",)
+SHADE_WORDS = ("dark", "light")
 FILLER_WORDS = {"the", "a", "an", "small", "big", "large", "little", "object", "lidded", "of", "s"}
-ATTACHED_PX = 4  # a part's component lies within this many pixels of its object's silhouette
+LIGHT_NEUTRALS = ("white", "gray")  # a colour word of one stands for the other when nothing is of that one
+SHUT_LOOKS_LIKE = frozenset({"box"})  # a lidded box with its lid shut is a box to the eye: when no lidded one is,
+CHEST_AREA_RATIO = 0.6  # ... the largest box (and any nearly as large): a chest is several blocks in size
+ATTACHED_PX = 4  # a part's region lies within this many pixels of its object's region
+CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+BLEND_SATURATION = 0.8  # a lid's pixel along its box this much less saturated than the lid is a blend of the two
+LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
+FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
+RANK_MARGIN = 0.15  # with no region of the shape's kinds: those fitting it within this of the best
+SHAPE_ONLY_FIT = 0.5  # ... and with no colour word, fitting it at least this well
+SHADE_RATIO = 0.8  # a light (dark) region's saturation (value) against the deepest (brightest) of its colour
 
 
 @dataclass(frozen=True)
 class ObjectPhrase:
     colour: str | None
-    shape: str | None  # a shape class (value of SHAPE_WORDS)
+    shape: str | None  # the shape word (a key of SHAPE_WORDS)
     part: str | None = None  # a part of the object (PART_WORDS), e.g. its lid
+    shade: str | None = None  # dark or light (SHADE_WORDS): among several of the colour, the darker or paler
+    also: frozenset[str] = frozenset()  # kinds matched besides the shape word's
+
+    @property
+    def kinds(self) -> frozenset[str] | None:
+        return None if self.shape is None else SHAPE_WORDS[self.shape] | self.also
 
 
 def parse_phrase(phrase: str) -> ObjectPhrase:
     """Colour, shape and part words of an object phrase; other words are errors so typos do not go unnoticed."""
-    colour = shape = part = None
+    colour = shape = part = shade = None
     words = re.findall(r"[a-z]+", phrase.lower())
     for w in words:
-        if w in COLOUR_WORDS and colour is None:
+        if w in SHADE_WORDS and shade is None:
+            shade = w
+        elif w in COLOUR_WORDS and colour is None:
             colour = COLOUR_WORDS[w]
         elif w in SHAPE_WORDS and shape is None:
-            shape = SHAPE_WORDS[w]
+            shape = w
         elif w in PART_WORDS and part is None:
             part = w
         elif w not in FILLER_WORDS:
@@ -94,145 +104,159 @@ def parse_phrase(phrase: str) -> ObjectPhrase:
             )
     if colour is None and shape is None:
         raise SegmentationError(f"offline segmenter: {phrase!r} names no colour or shape word for the object")
-    return ObjectPhrase(colour, shape, part)
+    return ObjectPhrase(colour, shape, part, shade if colour else None)
 
 
-def colour_mask(rgb: np.ndarray, colour: str) -> np.ndarray:
-    hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV_FULL).astype(np.float32)
-    hue, sat, val = hsv[..., 0] * (360.0 / 256.0), hsv[..., 1] / 255.0, hsv[..., 2] / 255.0
-    if colour in CHROMATIC:
-        centre, min_s, min_v = CHROMATIC[colour]
-        d = np.abs((hue - centre + 180.0) % 360.0 - 180.0)
-        return (d <= HUE_TOLERANCE_DEG) & (sat >= min_s) & (val >= min_v)
-    max_s, v0, v1 = ACHROMATIC[colour]
-    return (sat <= max_s) & (val >= v0) & (val < v1)
-
-
-def fill_holes(mask: np.ndarray) -> np.ndarray:
-    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-    filled = np.zeros(mask.shape, np.uint8)
-    cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
-    return filled.astype(bool) | mask
-
-
-def unsaturated_mask(rgb: np.ndarray) -> np.ndarray:
-    return cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV_FULL)[..., 1] <= UNSATURATED_MAX_S * 255.0
-
-
-def _round_body(mask: np.ndarray) -> float:
-    """A pan seen from any side: opening with a disc a quarter of its size removes the handle; what remains must
-    fill its bounding box like an ellipse (pi/4) and keep most, but not all, of the area (a ball or a block has no
-    handle to lose; a pan whose handle is hidden is missed, by design)."""
-    k = max(3, int(0.25 * np.sqrt(mask.sum())))
-    body = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
-    if not body.any():
-        return 0.0
-    _, _, bw, bh = cv2.boundingRect(body)
-    fill = body.sum() / float(bw * bh)
-    kept = body.sum() / float(mask.sum())
-    elliptic = np.clip(1.0 - abs(fill - np.pi / 4) / 0.12, 0.0, 1.0)
-    return float(elliptic * np.clip(min(kept - 0.5, 0.95 - kept) / 0.03, 0.0, 1.0))
-
-
-def _shape_score(mask: np.ndarray, shape: str | None) -> float:
-    """How well a silhouette fits a shape class, in [0, 1]; coarse on purpose (views are oblique)."""
-    if shape is None:
-        return 1.0
-    v, u = np.nonzero(mask)
-    w, h = int(np.ptp(u)) + 1, int(np.ptp(v)) + 1
-    cov = np.cov(np.stack([u, v]).astype(np.float64)) + 1e-6 * np.eye(2)
-    ev = np.sort(np.linalg.eigvalsh(cov))
-    elong = float(np.sqrt(ev[1] / ev[0]))
-    fill = mask.sum() / float(w * h)
-    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-    hull = cv2.contourArea(cv2.convexHull(max(contours, key=cv2.contourArea)))
-    solidity = mask.sum() / max(hull, 1.0)
-    aspect = w / h
-
-    def near(x: float, lo: float, hi: float, soft: float = 0.25) -> float:
-        return float(np.clip(1.0 - max(lo - x, x - hi, 0.0) / soft, 0.0, 1.0))
-
-    score = {
-        "box": near(elong, 1.0, 2.2) * near(fill, 0.55, 1.0),
-        "platform": near(elong, 1.0, 2.5) * near(fill, 0.55, 1.0),
-        "lidded_box": near(fill, 0.3, 1.0),
-        "cylinder": max(near(1 / aspect, 1.35, 3.5), near(elong, 2.0, 4.0)) * near(fill, 0.55, 1.0),
-        "bottle": max(near(1 / aspect, 1.4, 4.0), near(elong, 2.0, 5.0)),
-        "sphere": near(elong, 1.0, 1.3) * near(fill, 0.65, 0.9),
-        "plate": near(aspect, 1.2, 3.0) * near(solidity, 0.9, 1.0),
-        "bowl": near(aspect, 1.1, 3.0) * near(solidity, 0.85, 1.0),
-        "pan": _round_body(mask) * near(solidity, 0.6, 0.97),
-    }[shape]
-    return float(score)
+@dataclass(frozen=True)
+class Instance:
+    region: Region
+    kind: str  # the best-scoring kind
+    scores: dict[str, float]
+    hsv: tuple[np.ndarray, np.ndarray, np.ndarray]  # hue, saturation, value of its pixels
 
 
 class OfflineSegmenter(Segmenter):
-    """Colour components ranked by shape fit; `min_area_frac` drops specks, `min_shape_score` drops misfits.
-
-    With a colour word the shape only ranks (loose bound); a shape word alone must fit well (strict bound).
-    """
+    """Colour regions classified by shape; `min_area_frac` drops specks, `min_shape_score` is the loose fit a
+    region of the named colour needs when none of that colour is classified as the named shape."""
 
     name = "offline"
 
-    def __init__(self, min_area_frac: float = 2.5e-4, min_shape_score: float = 0.2, shape_only_score: float = 0.6):
+    def __init__(self, min_area_frac: float = 2.5e-4, min_shape_score: float = 0.2):
         self.min_area_frac = min_area_frac
         self.min_shape_score = min_shape_score
-        self.shape_only_score = shape_only_score
 
     def segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
         check_rgb(rgb, "offline segmenter")
         want = parse_phrase(phrase)
+        instances = self.instances(rgb)
+        lids = {id(lid) for i in instances if i.kind == "lidded_box" for lid in [_attached_lid(i, instances)] if lid}
+        candidates = [i for i in instances if id(i) not in lids]
+        objects = _matching(candidates, want, self.min_shape_score)
+        if not objects and want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
+            shut = ObjectPhrase(want.colour, want.shape, want.part, want.shade, SHUT_LOOKS_LIKE)  # a shut box
+            boxes = _matching(candidates, shut, self.min_shape_score)
+            largest = max((i.region.area for i in boxes), default=0)
+            objects = [i for i in boxes if i.region.area >= CHEST_AREA_RATIO * largest]  # a chest outsizes blocks
         if want.part is None:
-            return self._objects(rgb, want)
-        # the object's own silhouette changes shape as its part moves (a box under its closed lid is a strip):
-        # with a colour word, the colour alone finds it
-        objects = self._objects(rgb, ObjectPhrase(want.colour, None) if want.colour else want)
-        parts = [(whole, _attached_part(rgb, whole.mask, self._min_area(rgb))) for whole in objects]
-        return [
-            Detection(m, whole.score, box_of(m), f"{want.part} of {whole.label}") for whole, m in parts if m is not None
-        ]
+            return [_detection(i, want, i.region.mask) for i in objects]
+        out = []
+        for whole in objects:
+            lid = _lid(rgb, whole, instances, want)
+            if lid is not None:
+                out.append(Detection(lid, _score(whole, want), box_of(lid), f"{want.part} of {_label(whole)}"))
+        return out
 
-    def _min_area(self, rgb: np.ndarray) -> int:
-        return max(20, int(self.min_area_frac * rgb.shape[0] * rgb.shape[1]))
-
-    def _objects(self, rgb: np.ndarray, want: ObjectPhrase) -> list[Detection]:
-        colours = [want.colour] if want.colour else [c for c in (*CHROMATIC, *ACHROMATIC) if c != "orange"]
-        h, w = rgb.shape[:2]
-        min_area = self._min_area(rgb)
-        kernel = np.ones((3, 3), np.uint8)
-        bound = self.min_shape_score if want.colour else self.shape_only_score
-        found: list[Detection] = []
-        for colour in colours:
-            dark = colour in ("gray", "black")
-            pixels = colour_mask(rgb, colour)
-            mask = unsaturated_mask(rgb) if dark else pixels
-            mask = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, kernel)
-            n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-            for i in range(1, n):
-                x, y, bw, bh, area = stats[i]
-                if area < min_area or x == 0 or y == 0 or x + bw >= w or y + bh >= h:
-                    continue
-                comp = labels == i
-                if dark:
-                    if pixels[comp].mean() < DARK_MIN_FRACTION:
-                        continue
-                    comp = fill_holes(comp)
-                score = _shape_score(comp, want.shape)
-                if score >= bound:
-                    found.append(Detection(comp, score, box_of(comp), f"{colour} {want.shape or 'object'}"))
-        return sorted(found, key=lambda d: (-d.score, -d.area_px))
+    def instances(self, rgb: np.ndarray) -> list[Instance]:
+        """Every colour region of the image with its kind."""
+        min_area = max(20, int(self.min_area_frac * rgb.shape[0] * rgb.shape[1]))
+        out = []
+        h, s, v = hsv(rgb)
+        for region in regions(rgb, min_area):
+            kind, scores = classify(region.mask, rgb, region.colour)
+            m = region.mask
+            out.append(Instance(region, kind, scores, (h[m], s[m], v[m])))
+        return out
 
 
-def _attached_part(rgb: np.ndarray, whole: np.ndarray, min_area: int) -> np.ndarray | None:
-    """The largest chromatic component outside `whole` that touches it (within ATTACHED_PX), or None."""
-    near = cv2.dilate(whole.astype(np.uint8), np.ones((2 * ATTACHED_PX + 1,) * 2, np.uint8)).astype(bool)
-    best: np.ndarray | None = None
-    for colour in CHROMATIC:
-        pixels = cv2.morphologyEx(colour_mask(rgb, colour).astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
-        _, labels, stats, _ = cv2.connectedComponentsWithStats(pixels, connectivity=8)
-        for i in np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= min_area) + 1:
-            comp = labels == i
-            own = (comp & whole).sum() >= 0.5 * comp.sum()
-            if not own and (comp & near).any() and (best is None or comp.sum() > best.sum()):
-                best = comp & ~whole
-    return best
+def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> list[Instance]:
+    """The instances a phrase names, best first (see the module docstring)."""
+    found = [i for i in instances if want.colour is None or i.region.colour == want.colour]
+    if not found and want.colour in LIGHT_NEUTRALS:  # a white object in the shade, a gray one in the light
+        found = [i for i in instances if i.region.colour in LIGHT_NEUTRALS]
+    kinds = want.kinds
+    if kinds is not None:
+        exact = [i for i in found if i.kind in kinds]
+        fit = {id(i): max(i.scores[k] for k in kinds) for i in found}
+        best = max(fit.values(), default=0.0)
+        if exact:
+            found = exact
+        elif want.colour is None:  # the shape alone decides: a region that fits it well, if none is of its kind
+            found = [i for i in found if fit[id(i)] >= max(SHAPE_ONLY_FIT, best - RANK_MARGIN)]
+        else:  # the colour decides; the shape ranks: the best fits (a loose bound), or all of that colour
+            found = [i for i in found if fit[id(i)] >= max(loose, best - RANK_MARGIN)] if best >= loose else found
+    if want.shade is not None and len(found) > 1:
+        found = _of_shade(found, want.shade)
+    return sorted(found, key=lambda i: (-_score(i, want), -i.region.area))
+
+
+def _of_shade(found: list[Instance], shade: str) -> list[Instance]:
+    """Among regions of one colour, the paler ("light": saturation well below the deepest's; shading leaves
+    saturation alone) or the darker ("dark": value well below the brightest's)."""
+    channel = 1 if shade == "light" else 2
+    level = {id(i): float(np.median(i.hsv[channel])) for i in found}
+    ref = max(level.values())
+    kept = [i for i in found if level[id(i)] < SHADE_RATIO * ref]
+    return kept or found
+
+
+def _score(instance: Instance, want: ObjectPhrase) -> float:
+    return 1.0 if want.kinds is None else max(instance.scores[k] for k in want.kinds)
+
+
+def _label(instance: Instance) -> str:
+    return f"{instance.region.colour} {instance.kind.replace('_', ' ')}"
+
+
+def _detection(instance: Instance, want: ObjectPhrase, mask: np.ndarray) -> Detection:
+    return Detection(mask, _score(instance, want), box_of(mask), _label(instance))
+
+
+def _lid(rgb: np.ndarray, whole: Instance, instances: list[Instance], want: ObjectPhrase) -> np.ndarray | None:
+    """The lid of an object: a region of another colour attached to it from above, or else, for a lidded box
+    (or a shut one, which looks like a plain box, when the phrase may name a lidded box), the topmost face of its
+    own region (a lid of the box's own colour)."""
+    lid = _attached_lid(whole, instances, any_shape=True)
+    if lid is not None:  # less the pixels along the box where the two colours blend (washed out)
+        mask = lid.region.mask & ~whole.region.mask
+        along = mask & cv2.dilate(whole.region.mask.astype(np.uint8), CROSS).astype(bool)
+        _, sat, _ = hsv(rgb)
+        return mask & ~(along & (sat < BLEND_SATURATION * np.median(sat[mask])))
+    may_be_lidded = want.kinds is None or "lidded_box" in want.kinds
+    if whole.kind == "lidded_box" or (whole.kind == "box" and may_be_lidded):
+        return _top_face(rgb, whole.region.mask)
+    return None
+
+
+def _attached_lid(whole: Instance, instances: list[Instance], any_shape: bool = False) -> Instance | None:
+    """The largest region touching `whole` from above: over its width, reaching above its middle, covering
+    LID_MIN_FRACTION of it, and flat unless `any_shape` (a lid seen edge-on looks like anything but a ball)."""
+    own = whole.region.mask
+    near = cv2.dilate(own.astype(np.uint8), np.ones((2 * ATTACHED_PX + 1,) * 2, np.uint8)).astype(bool)
+    u0, v0, u1, v1 = box_of(own)
+    middle = (v0 + v1) / 2
+
+    def lid_like(i: Instance) -> bool:
+        a0, b0, a1, b1 = box_of(i.region.mask)
+        over = min(a1, u1) - max(a0, u0)
+        return (
+            (i.kind in FLAT_KINDS or (any_shape and i.kind not in ("sphere", "bowl", "pan")))
+            and i.region.area >= LID_MIN_FRACTION * whole.region.area
+            and over >= 0.5 * (a1 - a0)
+            and (b0 + b1) / 2 < middle
+            and bool((i.region.mask & near).any())
+        )
+
+    return max((i for i in instances if i is not whole and lid_like(i)), key=lambda i: i.region.area, default=None)
+
+
+def _top_face(rgb: np.ndarray, mask: np.ndarray) -> np.ndarray | None:
+    """A lid of the object's own colour: the topmost of the faces (pieces between the edges inside the region)
+    covering LID_MIN_FRACTION of it, with all of the region above its lower edge (the line it is hinged on when
+    open, the box's front top edge when shut), so the lid's own rim and shading steps stay with it."""
+    gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+    edges = cv2.dilate(cv2.Canny(gray, 15, 45), np.ones((2, 2), np.uint8)).astype(bool)
+    n, comp = cv2.connectedComponents((mask & ~edges).astype(np.uint8), connectivity=4)
+    faces = [f for f in (comp == i for i in range(1, n)) if f.sum() >= 0.05 * mask.sum()]
+    large = [f for f in faces if f.sum() >= LID_MIN_FRACTION * mask.sum()]
+    if len(faces) < 2 or not large:  # one face is the whole object: no lid to tell from it
+        return None
+    face = min(large, key=lambda f: np.nonzero(f)[0].mean())
+    v, u = np.nonzero(face)
+    columns = np.unique(u)
+    bottom = np.array([v[u == c].max() for c in columns], np.float64)
+    a, b = np.polyfit(columns, bottom, 1)  # the face's lower edge as a line across the image
+    rows, cols = np.nonzero(mask)
+    lid = np.zeros_like(mask)
+    above = rows <= a * cols + b + 1.0
+    lid[rows[above], cols[above]] = True
+    return lid if LID_MIN_FRACTION * mask.sum() <= lid.sum() < 0.8 * mask.sum() else None

@@ -35,6 +35,14 @@ class Detection:
         return float(u.mean()), float(v.mean())
 
 
+def matches(found: list[Detection]) -> str:
+    """What a phrase matched, for error messages: "matches 2 objects: a white box at (312, 170), ..."."""
+    if not found:
+        return "matches no object"
+    where = ", ".join(f"a {d.label} at ({d.centroid_uv[0]:.0f}, {d.centroid_uv[1]:.0f})" for d in found)
+    return f"matches {len(found)} object{'s' if len(found) > 1 else ''}: {where}"
+
+
 def box_of(mask: np.ndarray) -> tuple[int, int, int, int]:
     v, u = np.nonzero(mask)
     if u.size == 0:

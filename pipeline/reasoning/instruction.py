@@ -6,10 +6,11 @@
     push X [left|right|forward|backward|away|toward the camera] [by N (cm|mm|m)]
     close X
 
-X and Y are object phrases made of colour and shape words ("the red block", "the pan"); "to the left of" and
-"to the right of" are accepted too. Directions are as seen from the camera, on the table plane: left/right along
-the image, behind = farther from the camera, in front = nearer. Rotation is counterclockwise seen from above
-unless "clockwise" is given. A sentence outside the grammar is an error that quotes the grammar.
+X and Y are object phrases made of colour and shape words ("the red block", "the pan", "the dark blue bottle",
+"the lid of the blue box"); "to the left of" and "to the right of" are accepted too. Directions are as seen from
+the camera, on the table plane: left/right along the image, behind = farther from the camera, in front = nearer.
+Rotation is counterclockwise seen from above unless "clockwise" is given. A sentence outside the grammar is an
+error that quotes the grammar.
 """
 
 from __future__ import annotations
@@ -86,7 +87,7 @@ def _phrase(text: str, sentence: str) -> str:
         p = parse_phrase(text)
     except SegmentationError as e:
         raise InstructionError(f"{sentence!r}: {e}\n{GRAMMAR}") from None
-    return " ".join(w for w in (p.colour, _shape_word(text)) if w)
+    return " ".join(w for w in (p.shade, p.colour, _shape_word(text)) if w)
 
 
 def _shape_word(text: str) -> str | None:
@@ -118,6 +119,16 @@ PATTERNS: tuple[tuple[str, re.Pattern[str]], ...] = (
 def lid_of(phrase: str) -> str:
     """The phrase naming the part that moves when an object is closed (the offline segmenter's part grammar)."""
     return f"lid of the {phrase}"
+
+
+def check_instruction(sentence: str) -> Instruction:
+    """The sentence parsed, or InstructionError quoting the grammar: cheap (no image, no model), so a command line
+    can refuse a sentence before anything starts."""
+    try:
+        return parse_instruction(sentence)
+    except InstructionError as e:
+        message = str(e)
+        raise InstructionError(message if GRAMMAR in message else f"{message}\n{GRAMMAR}") from None
 
 
 def parse_instruction(sentence: str, default_push_m: float = 0.10) -> Instruction:

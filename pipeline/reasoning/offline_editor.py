@@ -1,7 +1,9 @@
 """Offline image editor: composes the goal image from the current RGB-D view for an instruction in the grammar.
 
 The target's pixels are lifted to 3D with the measured depth and intrinsics, moved rigidly to where the
-instruction puts them (found from the segmented reference object and the table plane), projected back with a
+instruction puts them (found from the segmented reference object and the table plane: beside a reference, the
+first free, supported spot in reach and in view around the relation's direction, see placement.py; a push's or
+a placement's goal that is none of these is refused with the reason), projected back with a
 z-buffer (correct perspective scale and occlusion) and splatted; the vacated region is inpainted (cv2.inpaint).
 For "stand up" the hidden underside turns into view, so the lying body is first completed as a solid of revolution.
 For "close" only the object's lid moves: it turns about the line where it meets the box (the hinge grounding
@@ -21,10 +23,11 @@ from scipy.ndimage import distance_transform_edt, median_filter
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.articulation import HingeNotFound, find_hinge
 from pipeline.perception.depth import OfflineDepthEstimator, RelativeDepth
-from pipeline.perception.segmenter import SegmentationError, Segmenter
+from pipeline.perception.segmenter import SegmentationError, Segmenter, matches
 from pipeline.reasoning.checks import grow
 from pipeline.reasoning.instruction import Instruction, InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import ImageEditor
+from pipeline.reasoning.placement import PlacementConfig, Table, spot_beside
 from pipeline.reasoning.providers import ProviderError
 from pipeline.reasoning.tabletop import (
     Footprint,
@@ -40,7 +43,7 @@ from pipeline.reasoning.tabletop import (
 )
 from pipeline.reasoning.types import EditRequest, EditResult
 
-PLACE_GAP_M = 0.04  # free space between objects placed side by side
+FIT_MARGIN = 1.1  # an object put on or in another may be this much wider than it (its seen footprint is partial)
 # an object put on or in another is released this far above the support: clear of contact planning's 4 mm
 # placed-object check, so a measured millimetre of grounding error does not read as the object sinking into it
 RELEASE_ABOVE_M = 0.006
@@ -60,16 +63,22 @@ def _single(segmenter: Segmenter, rgb: np.ndarray, phrase: str) -> np.ndarray:
     except SegmentationError as e:
         raise _refuse(str(e)) from None
     if len(found) != 1:
-        raise _refuse(f"'{phrase}' matches {len(found)} objects in the current image (needs exactly one)")
+        raise _refuse(f"'{phrase}' {matches(found)} in the current image (needs exactly one)")
     return found[0].mask
 
 
 class OfflineEditor(ImageEditor):
     name = "offline"
 
-    def __init__(self, segmenter: Segmenter, depth_registry: OfflineDepthEstimator | None = None) -> None:
+    def __init__(
+        self,
+        segmenter: Segmenter,
+        depth_registry: OfflineDepthEstimator | None = None,
+        placement: PlacementConfig | None = None,
+    ) -> None:
         self.segmenter = segmenter
         self.depth_registry = depth_registry
+        self.placement = placement or PlacementConfig()
 
     def edit(self, request: EditRequest) -> EditResult:
         if request.depth_m is None or request.intrinsics is None:
@@ -79,7 +88,7 @@ class OfflineEditor(ImageEditor):
         except InstructionError as e:
             raise _refuse(str(e)) from None
         try:
-            rgb, depth_m, T = self._compose(request.rgb, request.depth_m, request.intrinsics, instr)
+            rgb, depth_m, T = self._compose(request, instr)
         except GeometryError as e:
             raise _refuse(str(e)) from None
         disparity = 1.0 / depth_m
@@ -89,9 +98,8 @@ class OfflineEditor(ImageEditor):
             self.depth_registry.remember(rgb, rel)
         return EditResult(rgb, raw=f"composed: {instr.canonical()}", relative_depth=rel, T_goal_init_camera=T)
 
-    def _compose(
-        self, rgb: np.ndarray, depth_m: np.ndarray, K: CameraIntrinsics, instr: Instruction
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _compose(self, request: EditRequest, instr: Instruction) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        rgb, depth_m, K = request.rgb, request.depth_m, request.intrinsics
         if instr.action == "close":
             return self._close(rgb, depth_m, K, instr.target)
         mask_x = _single(self.segmenter, rgb, instr.target)
@@ -99,11 +107,15 @@ class OfflineEditor(ImageEditor):
         plane = fit_table_plane(cloud)
         px, _ = object_points(depth_m, K, mask_x)
         fx = footprint(px, plane)
-        fy = None
+        fy, exclude = None, grow(mask_x, 3)
         if instr.reference is not None:
-            py, _ = object_points(depth_m, K, _single(self.segmenter, rgb, instr.reference))
+            mask_y = _single(self.segmenter, rgb, instr.reference)
+            py, _ = object_points(depth_m, K, mask_y)
             fy = footprint(py, plane)
-        R, pivot, t = self._motion(instr, plane, fx, fy)
+            if instr.relation in ("on", "in"):  # the reference is where it goes, not in its way
+                exclude |= grow(mask_y, 3)
+        table = Table(depth_m, K, plane, exclude, request.T_base_camera, self.placement)
+        R, pivot, t = self._motion(instr, plane, fx, fy, table)
         T = np.eye(4)
         T[:3, :3] = R
         T[:3, 3] = pivot - R @ pivot + t
@@ -140,7 +152,7 @@ class OfflineEditor(ImageEditor):
 
     @staticmethod
     def _motion(
-        instr: Instruction, plane: Plane, fx: Footprint, fy: Footprint | None
+        instr: Instruction, plane: Plane, fx: Footprint, fy: Footprint | None, table: Table
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rotation, pivot and translation (camera frame) that carry out the instruction."""
         right = plane.in_plane(np.array([1.0, 0.0, 0.0]))
@@ -149,9 +161,19 @@ class OfflineEditor(ImageEditor):
         bottom = float(np.percentile(fx.heights, 2))
         bottom = 0.0 if bottom < RESTING_M else bottom
         if instr.action == "place":
+            where = f"{instr.relation.replace('_', ' ')} the {instr.reference}"
             if instr.relation in ("on", "in"):
+                if fx.radius_m > FIT_MARGIN * fy.radius_m:
+                    raise GeometryError(
+                        f"the {instr.target} ({fx.radius_m * 1000:.0f} mm across its middle) does not fit {where} "
+                        f"({fy.radius_m * 1000:.0f} mm)"
+                    )
                 lift = support_height(fy, plane) - bottom + RELEASE_ABOVE_M
-                return eye, zero, fy.centre - fx.centre + lift * plane.n
+                shift = fy.centre - fx.centre + lift * plane.n
+                problem = table.problem(fx, shift, hidden_ok=instr.relation == "in")  # walls may hide it
+                if problem is not None:
+                    raise GeometryError(f"cannot put the {instr.target} {where}: {problem}")
+                return eye, zero, shift
             side = {
                 "left_of": -right,
                 "right_of": right,
@@ -161,12 +183,17 @@ class OfflineEditor(ImageEditor):
             if side is None:  # next to: stay on the side the object is already on
                 offset = fx.centre - fy.centre
                 side = plane.in_plane(offset) if np.linalg.norm(offset) > 1e-3 else right
-            goal = fy.centre + side * (fx.radius_m + fy.radius_m + PLACE_GAP_M)
-            return eye, zero, goal - fx.centre
+            shift, why = spot_beside(table, fx, fy, side, where)
+            if shift is None:
+                raise GeometryError(why)
+            return eye, zero, shift
         if instr.action == "rotate":
             return axis_rotation(plane.n, math.radians(instr.angle_deg)), fx.centre, zero
         if instr.action == "push":
             direction = {"left": -right, "right": right, "away": away, "toward": -away}[instr.direction]
+            problem = table.problem(fx, direction * instr.distance_m)
+            if problem is not None:
+                raise GeometryError(f"cannot {instr.canonical()}: where it would end is {problem}")
             return eye, zero, direction * instr.distance_m
         # stand up: turn the long axis vertical with the wider end (a bottle's base, not its neck) down; a body with
         # equal ends keeps its visible side facing the camera. +90 deg about n x axis takes the +axis end down.

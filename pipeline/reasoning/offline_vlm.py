@@ -1,8 +1,10 @@
 """Offline text VLM: enhancement = parsing into the grammar; reflection = checking the relation in the goal image.
 
 The enhancer rewrites the instruction canonically (the offline editor reads the same grammar) and names the
-target and reference phrases. The reflector segments the reference object in the candidate and checks, in image
-space, that the segmented goal object stands in the requested relation to it; motions without a reference
+target and reference phrases. The reflector segments the reference object where it stands (in the initial image:
+it does not move, and the goal object set on it or in front of it would change its outline in the candidate) and
+checks, in image space, that the segmented goal object stands in the requested relation to it; motions without a
+reference
 (rotate, push, stand up) pass when the geometric checks already saw the target change.
 """
 
@@ -10,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter
+from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, matches
 from pipeline.reasoning.instruction import InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import TextVLM
 from pipeline.reasoning.providers import ProviderError
@@ -41,11 +43,11 @@ class OfflineVLM(TextVLM):
         if instr.action != "place":
             return Verdict(True, (f"{instr.target} changed as asked ({instr.action}); no relation to check",))
         try:
-            found = self.segmenter.segment(request.rgb_goal, instr.reference)
+            found = self.segmenter.segment(request.rgb_init, instr.reference)
         except SegmentationError as e:
-            return Verdict(False, (f"reference '{instr.reference}' not segmentable in the candidate: {e}",))
+            return Verdict(False, (f"reference '{instr.reference}' not segmentable: {e}",))
         if len(found) != 1:
-            reason = f"reference '{instr.reference}' found {len(found)} times in the candidate (needs exactly one)"
+            reason = f"reference '{instr.reference}' {matches(found)} in the initial image (needs exactly one)"
             return Verdict(False, (reason,))
         ok, reason = relation_holds(request.mask_goal, found[0], instr.relation, instr.target, instr.reference)
         return Verdict(ok, (reason,), None if ok else request.prompt, raw=reason)

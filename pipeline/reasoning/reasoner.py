@@ -19,7 +19,7 @@ import numpy as np
 from drivers.types import RGBDFrame
 from pipeline.config import PipelineConfig
 from pipeline.perception.depth import DepthEstimationError, DepthEstimator
-from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter
+from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, matches
 from pipeline.reasoning import checks
 from pipeline.reasoning.interfaces import ImageEditor, TextVLM
 from pipeline.reasoning.providers import ProviderError
@@ -96,7 +96,7 @@ class Reasoner:
         initial = self._segment(rgb, enh.target)
         seconds["segment"] = time.perf_counter() - t0
         if len(initial) != 1:
-            reason = f"target '{enh.target}' matches {len(initial)} objects in the initial image (needs exactly one)"
+            reason = f"target '{enh.target}' {matches(initial)} in the initial image (needs exactly one)"
             raise ReasoningError(reason, [reason])
         mask_init = initial[0].mask
         rec.image("mask_init.png", mask_init)
@@ -104,9 +104,7 @@ class Reasoner:
         if enh.anchor:
             anchors = self._segment(rgb, enh.anchor)
             if len(anchors) != 1:
-                reason = (
-                    f"anchor '{enh.anchor}' matches {len(anchors)} objects in the initial image (needs exactly one)"
-                )
+                reason = f"anchor '{enh.anchor}' {matches(anchors)} in the initial image (needs exactly one)"
                 raise ReasoningError(reason, [reason])
             mask_anchor = anchors[0].mask & ~mask_init
             rec.image("mask_anchor.png", mask_anchor)
@@ -198,7 +196,7 @@ class Reasoner:
 
         t0 = time.perf_counter()
         try:
-            result = self.editor.edit(EditRequest(rgb, it.prompt, frame.depth, frame.intrinsics))
+            result = self.editor.edit(EditRequest(rgb, it.prompt, frame.depth, frame.intrinsics, frame.T_base_camera))
         except ProviderError as e:
             lap("edit", t0)
             it.failure, it.failure_kind = str(e), e.kind

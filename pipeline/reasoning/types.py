@@ -35,12 +35,14 @@ class Enhancement:
 
 @dataclass(frozen=True)
 class EditRequest:
-    """One editing call. Cloud editors use rgb + prompt; the offline editor also needs the metric view."""
+    """One editing call. Cloud editors use rgb + prompt; the offline editor also needs the metric view (and,
+    when known, the camera's pose in the robot base frame, to keep goals in the arm's reach)."""
 
     rgb: np.ndarray
     prompt: str
     depth_m: np.ndarray | None = None
     intrinsics: CameraIntrinsics | None = None
+    T_base_camera: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -97,7 +97,7 @@ def run_hand_eye(
 ) -> int:
     """Returns the exit code: 0 stored, 3 refused (nothing stored). `load(overrides)` re-reads the profile."""
     cfg = profile.calibration.hand_eye
-    sim = profile.robot.kind == "sim"
+    sim = profile.robot.simulated
     geometry = nominal_geometry(mode, board, cfg, profile.camera.sim if sim else None)
     with tempfile.TemporaryDirectory() as texture_dir:
         if sim:

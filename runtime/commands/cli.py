@@ -24,6 +24,15 @@ def _fail(message: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
+def _writable(path: Path, what: str, folder: bool = False) -> None:
+    from drivers.files import InputFileError, check_output_path
+
+    try:
+        check_output_path(path, what, folder)
+    except InputFileError as e:
+        _fail(str(e))
+
+
 def _load(config: Path, overrides: dict | None = None):
     from runtime.config import ConfigError, load_profile
 
@@ -43,6 +52,7 @@ def capture(
     from runtime.devices import open_devices
 
     profile = _load(config)
+    _writable(out, "the capture folder (--out)", folder=True)
     with open_devices(profile) as devices:
         frame = devices.capture()
     for path in save_frame(frame, out):
@@ -60,6 +70,7 @@ def demo(
     profile = _load(config)
     if profile.robot.kind != "sim":
         _fail("the demo only drives the simulated arm; use a sim profile")
+    _writable(out, "the demo folder (--out)", folder=True)
     try:
         run_demo(profile, out)
     except DemoRefused as e:
@@ -135,6 +146,7 @@ def calibrate_hand_eye(
         _fail(f"--mode must be one of {', '.join(modes)}, got {mode!r}")
     profile = _load(config)
     target = out or profile.calibration.file or Path(f"calibration/{modes[mode]}.yaml")
+    _writable(target, "the calibration file")
     try:
         spec = load_board(board)
         code = run_hand_eye(
@@ -194,9 +206,34 @@ def run(
     if allow_unvalidated_goal:
         overrides["pipeline"] = {"allow_unvalidated_goal": True}
     profile = _load(config, overrides or None)
-    if sim and profile.robot.kind != "sim":
+    if sim and not profile.robot.simulated:
         _fail(f"--scene/--seed only apply to sim profiles; {config} drives robot.kind {profile.robot.kind!r}")
+    _refuse_unstartable(profile, instruction)
     raise typer.Exit(run_command(profile, instruction, yes, record, serve))
+
+
+def _refuse_unstartable(profile, instruction: str | None) -> None:
+    """Exit 2 before any device starts: missing API keys, a sentence outside the offline grammar (when the offline
+    VLM reads it), a sim scene that cannot be loaded or placed."""
+    from pipeline.reasoning.factory import preflight
+    from pipeline.reasoning.instruction import InstructionError, check_instruction
+
+    problems = preflight(profile.pipeline)
+    if instruction is not None and profile.pipeline.vlm == "offline":
+        try:
+            check_instruction(instruction)
+        except InstructionError as e:
+            problems.append(str(e))
+    if profile.robot.kind == "sim":
+        from drivers.sim.generate import check_scene
+        from drivers.sim.scene import SceneError
+
+        try:
+            check_scene(profile.sim)
+        except SceneError as e:
+            problems.append(str(e))
+    if problems:
+        _fail("cannot start:\n  " + "\n  ".join("\n  ".join(p.splitlines()) for p in problems))
 
 
 @app.command()
@@ -266,6 +303,36 @@ def doctor(config: ConfigOption = DEFAULT_CONFIG) -> None:
     from runtime.commands.doctor import run_doctor
 
     raise typer.Exit(run_doctor(_load(config), Console()))
+
+
+@app.command()
+def emulator(
+    config: ConfigOption = Path("configs/emulated.yaml"),
+    address: Annotated[
+        str | None, typer.Option(help="loopback address to listen on; default robot.ip of an emulated profile")
+    ] = None,
+) -> None:
+    """The xArm 7 controller emulator over the profile's MuJoCo scene: TCP 502 and 30003 on a loopback address,
+    for any xarm-python-sdk client, until Ctrl-C. (`goalvla run` with an emulated profile starts its own.)"""
+    import threading
+
+    from drivers.xarm7.emulator import EmulatorBindError
+    from drivers.xarm7.emulator.cell import serve
+
+    profile = _load(config)
+    if address is None and not profile.robot.emulated:
+        _fail(f"{config} is not an emulated profile (robot.emulated): give --address 127.0.0.N")
+    try:
+        serve(
+            profile.sim,
+            profile.camera,
+            address or str(profile.robot.ip),
+            profile.robot.control_rate_hz,
+            typer.echo,
+            threading.Event(),
+        )
+    except (EmulatorBindError, ValueError) as e:
+        _fail(str(e))
 
 
 if __name__ == "__main__":

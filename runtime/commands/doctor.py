@@ -12,6 +12,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from runtime.commands.doctor_checks import (
@@ -52,7 +53,7 @@ def render(checks: list[Check], console: Console) -> None:
         table.add_column(column, overflow="fold")
     marks = {True: "[green]PASS[/green]", False: "[red]FAIL[/red]", None: "[dim]n/a[/dim]"}
     for c in checks:
-        table.add_row(marks[c.ok], c.item, c.detail, c.hint)
+        table.add_row(marks[c.ok], c.item, escape(c.detail), escape(c.hint))  # details hold [lists], not markup
     console.print(table)
 
 
@@ -70,6 +71,11 @@ def device_factories(profile: Profile) -> tuple[Callable[[], Any], Callable[[], 
             lambda: SimArm(world, profile.robot.control_rate_hz),
             world.stop,
         )
+    if profile.robot.emulated:
+        from runtime.devices import _emulated_cell
+
+        cell = _emulated_cell(profile)
+        return (lambda: cell.camera), (lambda: cell.arm), cell.stop
     from runtime.devices import _hardware_devices
 
     camera, arm, _, _ = _hardware_devices(profile)

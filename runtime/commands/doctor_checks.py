@@ -201,7 +201,10 @@ def check_arm(arm: Any) -> list[Check]:
             "" if ok else "e-stop released? another program (xArm Studio) holding the arm?",
         )
     )
-    problems = verify(api, arm.controller_safety)
+    from safety.robot_model import RobotModel
+
+    robot = RobotModel(arm.spec)
+    problems = verify(api, arm.controller_safety, lambda q: robot.tcp_pose(q)[:3, 3])
     s = arm.controller_safety
     out.append(
         Check(
@@ -209,7 +212,7 @@ def check_arm(arm: Any) -> list[Check]:
             not problems,
             "; ".join(problems)
             or f"fence {list(s.tcp_boundary_mm)} mm, {s.max_joint_speed_deg_s:.0f} deg/s, "
-            f"{s.max_tcp_speed_mm_s:.0f} mm/s, TCP +{s.tcp_offset_mm[2]:.0f} mm, "
+            f"{s.max_tcp_speed_mm_s:.0f} mm/s, TCP +{s.tcp_offset_mm[2]:.0f} mm (reported TCP matches the model), "
             f"collision sensitivity {s.collision_sensitivity}",
             "firmware too old for reduced mode, or another client changed them" if problems else "",
         )

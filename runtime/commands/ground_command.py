@@ -11,19 +11,25 @@ from runtime.config import Profile
 
 
 def ground_command(profile: Profile, pair_file: Path, out: Path) -> int:
+    from drivers.files import InputFileError, check_output_path
     from pipeline.grounding.ground import ground
     from pipeline.grounding.pair_io import load_pair
     from pipeline.grounding.types import GroundingError
     from pipeline.perception.features import features_from_config
 
     try:
+        check_output_path(out, "RESULT.json (--out)")
         pair = load_pair(pair_file)
-    except GroundingError as e:
+    except (GroundingError, InputFileError) as e:
         typer.secho(f"error: {e}", fg=typer.colors.RED, err=True)
         return 2
     motion = ground(pair, features_from_config(profile.pipeline), profile.pipeline.grounding)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(motion.to_json(), indent=1))
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(motion.to_json(), indent=1))
+    except OSError as e:
+        typer.secho(f"error: {out}: cannot write RESULT.json ({e.strerror or e})", fg=typer.colors.RED, err=True)
+        return 2
     if motion.ok:
         typer.echo(
             f"grounded: |t| {1000 * float((motion.t**2).sum() ** 0.5):.1f} mm, {motion.inliers} inliers -> {out}"

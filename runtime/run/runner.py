@@ -77,7 +77,7 @@ class Runtime:
         prompt: Callable[[PlanSummary], bool] | None = None,
     ) -> None:
         cfg = profile.runtime
-        if cfg.estop_node == "in_process" and profile.robot.kind != "sim":
+        if cfg.estop_node == "in_process" and not profile.robot.simulated:
             raise ValueError(
                 f"runtime.estop_node 'in_process' is for the sim only; robot.kind is {profile.robot.kind!r}: "
                 "run `goalvla estop` on a terminal next to the robot"
@@ -150,7 +150,7 @@ class Runtime:
         summary = record.summary
         summary.instruction, summary.profile = instruction, self.profile.name
         summary.robot_id = self.profile.runtime.robot_id
-        if self.profile.robot.kind == "sim":
+        if self.profile.robot.simulated:
             summary.scene, summary.seed = self.profile.sim.scene, self.profile.sim.seed
         self.status.run_id, self.status.plan_id, self.status.instruction = run_id, "", instruction
         ctx = RunContext(self.profile, self.devices, instruction, record, self.supervisor.cancel)

@@ -2,7 +2,9 @@
 
 It records every call, keeps mode/state/error like the controller (errors drop it to state 4; clean_error +
 motion_enable + set_mode + set_state(0) recover), returns queued API codes, can refuse the connection, drop the
-link (calls then return -1 and `connected` is False) and stall a call until released.
+link (calls then return -1 and `connected` is False) and stall a call until released. Like the real SDK with
+report_type 'real' (checked against the emulator in tests/emulator): the report carries joints and state,
+`position` is the TCP the controller computes with the offset it was given, set_fence_mode returns [code].
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ import threading
 import time
 from collections import defaultdict
 from typing import Any
+
+import numpy as np
 
 
 class FakeXArmAPI:
@@ -26,8 +30,7 @@ class FakeXArmAPI:
         self.error_code, self.warn_code = 0, 0
         self.estop_pressed = False  # error 1 comes back after clean_error while the button is down
         self.angles = [0.0] * 7  # degrees, as the SDK reports with is_radian=False
-        self.realtime_joint_speeds = [0.0] * 7
-        self.tcp_offset = [0.0] * 6
+        self.controller_tcp_offset_mm = [0.0] * 6  # what set_tcp_offset wrote (the SDK cannot read it back)
         self.reduced: list[Any] = [0, [0.0] * 6, 1000.0, 180.0, [], 0, 0]
         self.gripper_position = 850.0
         self.report_callbacks: list = []
@@ -78,7 +81,7 @@ class FakeXArmAPI:
         while self.connected:
             if self.report_hz > 0:
                 for callback in list(self.report_callbacks):
-                    callback({"joints": list(self.angles), "error_code": self.error_code, "state": self.state})
+                    callback({"joints": list(self.angles), "state": self.state})
             with self._ticked:
                 self._ticks += 1
                 self._ticked.notify_all()
@@ -156,7 +159,7 @@ class FakeXArmAPI:
     def set_tcp_offset(self, offset: list[float], is_radian: bool | None = None, wait: bool = True) -> int:
         code = self._call("set_tcp_offset", list(offset), is_radian=is_radian)
         if code == 0:
-            self.tcp_offset = list(offset)
+            self.controller_tcp_offset_mm = list(offset)
         return code
 
     def set_tcp_load(self, weight: float, center_of_gravity: list[float], wait: bool = False) -> int:
@@ -195,11 +198,21 @@ class FakeXArmAPI:
             self.reduced[0] = int(on)
         return code
 
-    def set_fence_mode(self, on: bool) -> int:
+    def set_fence_mode(self, on: bool) -> list[int]:
         code = self._call("set_fence_mode", on)
         if code == 0:
             self.reduced[5] = int(on)
-        return code
+        return [code]  # the SDK returns the raw reply list here, unlike every other setter
+
+    @property
+    def position(self) -> list[float]:
+        """The TCP the controller reports: its flange pose (the project's model) with the offset it was given."""
+        from safety.robot_model import RobotModel
+
+        robot = RobotModel()
+        T = robot.frame_pose(np.radians(self.angles), robot.spec.flange_link)
+        tcp = T[:3, :3] @ (np.asarray(self.controller_tcp_offset_mm[:3]) / 1000.0) + T[:3, 3]
+        return [*(1000.0 * tcp), 0.0, 0.0, 0.0]
 
     def get_reduced_states(self, is_radian: bool | None = None) -> tuple[int, list[Any]]:
         return self._call("get_reduced_states"), list(self.reduced)

@@ -51,13 +51,12 @@ def test_every_xarm_call_binds_to_the_real_sdk():
         inspect.signature(real).bind(None, *args, **kwargs)  # raises TypeError on a mismatch
     for prop in (
         "angles",
-        "realtime_joint_speeds",
+        "position",
         "error_code",
         "warn_code",
         "mode",
         "state",
         "connected",
-        "tcp_offset",
     ):
         assert isinstance(inspect.getattr_static(XArmAPI, prop), property), prop
 

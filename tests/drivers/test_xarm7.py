@@ -93,10 +93,14 @@ def test_servo_converts_radians_to_degrees_and_state_back(fakes):
     name, args, kwargs = api.calls[-1]
     assert name == "set_servo_angle_j" and kwargs == {"is_radian": False}
     assert args[0] == pytest.approx(np.degrees(q).tolist())
-    api.realtime_joint_speeds = [10.0] * 7
-    assert api.wait_reports(3)  # reports sent after the set-point
+    on_report = api.report_callbacks.pop()  # the test delivers the reports from here on
+    assert api.wait_reports(1)  # a report pass that started before the pop has finished
+    step = np.full(7, math.radians(0.1))
+    on_report({"joints": np.degrees(q).tolist(), "state": 1})
+    on_report({"joints": np.degrees(q + step).tolist(), "state": 1})
     state = arm.read_state()
-    assert state.q == pytest.approx(q) and state.qd == pytest.approx([math.radians(10)] * 7)
+    # no speeds in the 'real' report: the change between two reports over the controller's 10 ms report period
+    assert state.q == pytest.approx(q) and state.qd == pytest.approx(step / 0.01)
     assert state.fault_code == 0
 
 

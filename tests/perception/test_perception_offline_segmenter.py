@@ -1,4 +1,5 @@
-"""Offline segmenter on synthetic images: colour words pick pixels, components are instances, shape words rank."""
+"""Offline segmenter on synthetic images: colour words pick regions on lit and shaded faces alike, regions are
+instances, a shape word alone keeps the regions of its kind, counts say what matched."""
 
 from __future__ import annotations
 
@@ -6,8 +7,9 @@ import cv2
 import numpy as np
 import pytest
 
+from pipeline.perception.colour_regions import hsv
 from pipeline.perception.offline_segmenter import OfflineSegmenter, parse_phrase
-from pipeline.perception.segmenter import SegmentationError
+from pipeline.perception.segmenter import SegmentationError, matches
 
 TABLE = (173, 133, 94)  # the sim table's rendered colour
 
@@ -31,9 +33,69 @@ def test_colour_finds_each_object_once_and_ignores_border_regions():
     assert seg.segment(img, "yellow block") == []
 
 
-def test_shape_word_alone_picks_the_matching_silhouette():
-    found = OfflineSegmenter().segment(scene(), "the cylinder")
-    assert found and found[0].label.startswith("green")
+def shaded(colour: tuple[int, int, int], k: float) -> tuple[int, int, int]:
+    """The colour lit by a factor k (clipped at full scale, as a camera does)."""
+    return tuple(int(min(255, c * k)) for c in colour)
+
+
+def ball(img: np.ndarray, centre: tuple[int, int], radius: int, colour: tuple[int, int, int]) -> np.ndarray:
+    """A ball lit from the upper left (smooth shading, its lit side clipping to white); returns its mask."""
+    v, u = np.mgrid[0 : img.shape[0], 0 : img.shape[1]]
+    x, y = (u - centre[0]) / radius, (v - centre[1]) / radius
+    inside = x**2 + y**2 <= 1.0
+    z = np.sqrt(np.clip(1.0 - x**2 - y**2, 0.0, 1.0))
+    light = np.clip((-0.5 * x - 0.5 * y + 0.7 * z) / np.sqrt(0.99), 0.0, 1.0)
+    k = 0.45 + 1.5 * light
+    img[inside] = np.clip(np.array(colour)[None, :] * k[inside][:, None], 0, 255).astype(np.uint8)
+    return inside
+
+
+def shapes_scene() -> np.ndarray:
+    """An upright can (shaded side, lighter elliptic top), a block (three faces), a ball and a flat plate."""
+    img = np.full((160, 240, 3), TABLE, np.uint8)
+    green = (40, 160, 50)
+    cv2.rectangle(img, (30, 50), (52, 100), shaded(green, 0.8), -1)
+    cv2.ellipse(img, (41, 100), (11, 5), 0, 0, 180, shaded(green, 0.8), -1)
+    cv2.ellipse(img, (41, 50), (11, 5), 0, 0, 360, shaded(green, 1.3), -1)
+    blue = (30, 60, 200)
+    top = np.array([[90, 60], [110, 52], [130, 60], [110, 68]])
+    left = np.array([[90, 60], [110, 68], [110, 92], [90, 84]])
+    right = np.array([[110, 68], [130, 60], [130, 84], [110, 92]])
+    for face, k in ((top, 1.3), (left, 0.9), (right, 0.6)):
+        cv2.fillConvexPoly(img, face, shaded(blue, k))
+    ball(img, (180, 70), 12, (200, 30, 25))
+    cv2.ellipse(img, (110, 128), (34, 26), 0, 0, 360, (235, 235, 230), -1)  # a white plate
+    cv2.ellipse(img, (110, 128), (34, 26), 0, 0, 180, (200, 200, 196), 2)  # its lower rim, shaded
+    return img
+
+
+def test_shape_word_alone_picks_the_one_object_of_that_kind():
+    seg = OfflineSegmenter()
+    img = shapes_scene()
+    for phrase, colour in (("the can", "green"), ("the block", "blue"), ("the ball", "red"), ("the plate", "white")):
+        found = seg.segment(img, phrase)
+        assert len(found) == 1 and found[0].label.startswith(colour), (phrase, [d.label for d in found])
+    assert seg.segment(img, "the bowl") == [] and seg.segment(img, "the scale") == []
+    assert [d.label for d in seg.segment(img, "the box")] == ["blue box"]  # the plate is no box
+
+
+def test_a_colour_is_found_on_its_lit_and_shaded_faces():
+    """A pink ball from nearly white (its lit side clips) to dark pink is one region, all of it."""
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    truth = ball(img, (80, 60), 20, (240, 140, 178))
+    _, sat, _ = hsv(img)
+    assert (sat[truth] < 0.25).mean() > 0.25  # a saturation bound would lose its lit side
+    (found,) = OfflineSegmenter().segment(img, "the pink ball")
+    assert (found.mask & truth).sum() >= 0.95 * truth.sum() and found.label == "pink sphere"
+
+
+def test_matches_names_what_a_phrase_matched():
+    img = scene()
+    cv2.rectangle(img, (120, 70), (140, 90), (200, 30, 25), -1)
+    found = OfflineSegmenter().segment(img, "red block")
+    text = matches(found)
+    assert text.startswith("matches 2 objects: a red ") and "at (30, 40)" in text and "at (130, 80)" in text
+    assert matches([]) == "matches no object"
 
 
 def test_two_same_coloured_objects_are_two_detections():
@@ -43,7 +105,8 @@ def test_two_same_coloured_objects_are_two_detections():
 
 
 def test_phrases_are_validated():
-    assert parse_phrase("the grey cube").colour == "gray" and parse_phrase("the grey cube").shape == "box"
+    assert parse_phrase("the grey cube").colour == "gray" and parse_phrase("the grey cube").kinds == {"box"}
+    assert parse_phrase("the box").kinds == {"box", "lidded_box"} and parse_phrase("the dark blue can").colour == "blue"
     with pytest.raises(SegmentationError, match="unknown word 'gizmo'"):
         parse_phrase("red gizmo")
     with pytest.raises(SegmentationError, match="no colour or shape"):
@@ -90,7 +153,7 @@ def test_part_word_finds_the_differently_coloured_part_attached_to_the_object():
     cv2.rectangle(img, (110, 80), (130, 100), (200, 30, 25), -1)  # a red block with nothing attached
     seg = OfflineSegmenter()
     (lid,) = seg.segment(img, "the lid of the blue box")
-    assert lid.box == (40, 35, 80, 59) and lid.label == "lid of blue object"
+    assert lid.box == (40, 35, 80, 59) and lid.label.startswith("lid of blue")
     assert seg.segment(img, "blue box's lid")[0].box == lid.box
     assert seg.segment(img, "the lid of the red block") == []
     assert parse_phrase("lid of the blue box").part == "lid"

@@ -108,10 +108,10 @@ def test_editor_moving_nearer_enlarges_the_object(sim_view):
     frame, _, _ = sim_view
     seg = OfflineSegmenter()
     result = OfflineEditor(seg).edit(
-        EditRequest(frame.rgb, "push the green cylinder backward by 15 cm", frame.depth, frame.intrinsics)
+        EditRequest(frame.rgb, "push the blue block backward by 12 cm", frame.depth, frame.intrinsics)
     )
-    before = seg.segment(frame.rgb, "green cylinder")[0].area_px
-    after = seg.segment(result.rgb, "green cylinder")[0].area_px
+    before = seg.segment(frame.rgb, "blue block")[0].area_px
+    after = seg.segment(result.rgb, "blue block")[0].area_px
     assert after > 1.1 * before
 
 
@@ -119,9 +119,11 @@ def test_editor_refusals_are_provider_errors(sim_view):
     frame, _, _ = sim_view
     editor = OfflineEditor(OfflineSegmenter())
     for prompt, words in [
-        ("close the red block", "'lid of the red block' matches 0 objects"),
-        ("put the purple block on the plate", "matches 0 objects"),
-        ("push the red block backward by 50 cm", "leaves the camera view"),
+        ("close the red block", "'lid of the red block' matches no object"),
+        ("put the purple block on the plate", "matches no object"),
+        ("push the red block backward by 50 cm", "where it would end is outside the camera's view"),
+        # 10 cm nearer the camera the cylinder would stand in the blue block
+        ("push the green cylinder backward by 10 cm", "where it would end is too close to another object"),
     ]:
         with pytest.raises(ProviderError) as e:
             editor.edit(EditRequest(frame.rgb, prompt, frame.depth, frame.intrinsics))

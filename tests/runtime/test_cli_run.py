@@ -67,3 +67,29 @@ def test_record_refuses_an_existing_run_folder_before_anything_runs(sim_config_p
     assert result.exit_code == 2 and str(target) in result.output, result.output
     assert ("already holds files" if kind != "file" else "is not a folder") in result.output
     assert {p.name: p.read_bytes() for p in ([target] if target.is_file() else target.iterdir())} == before
+
+
+def test_unstartable_runs_are_refused_before_any_device_opens(sim_config_path, tmp_path, monkeypatch):
+    """A sentence outside the offline grammar (the grammar shown), a generated scene name that is no seed, and a
+    scene whose objects overlap by their outlines (a pan's handle) all exit 2 before the simulator starts."""
+    import runtime.commands.launch
+
+    def must_not_start(*args, **kwargs):
+        raise AssertionError("the run started")
+
+    monkeypatch.setattr(runtime.commands.launch, "open_devices", must_not_start)
+    base = ["run", "--config", str(sim_config_path), "--yes"]
+    result = runner.invoke(app, [*base, "--instruction", "wipe the table"])
+    assert result.exit_code == 2 and "not in the offline instruction grammar" in result.output
+    assert "stand X up | stand up X" in result.output
+    result = runner.invoke(app, [*base, "--instruction", "put the red block on the plate", "--scene", "gen:x"])
+    assert result.exit_code == 2 and "gen:SEED" in result.output
+    scene = tmp_path / "handle.yaml"
+    scene.write_text(
+        "name: handle\nobjects:\n"
+        "  - {name: pan, kind: pan, radius_m: 0.08, color: gray, xy_m: [0.40, 0.0]}\n"
+        "  - {name: tomato, kind: sphere, radius_m: 0.03, color: red, xy_m: [0.63, 0.0]}\n"
+        "randomise: {xy_jitter_m: 0.0, yaw_jitter_deg: 0}\n"
+    )
+    result = runner.invoke(app, [*base, "--instruction", "put the red ball in the pan", "--scene", str(scene)])
+    assert result.exit_code == 2 and "pan and tomato come within" in result.output

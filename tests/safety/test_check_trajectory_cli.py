@@ -74,7 +74,7 @@ def test_world_with_point_cloud_file(tmp_path, sim_config_path):
 
 
 UNUSABLE = {
-    "wrong joint count": (_traj(np.zeros((3, 6))), "positions[0] has 6 values"),
+    "wrong joint count": (_traj(np.zeros((3, 6))), "positions[0]: has 6 values"),
     "wrong joint names": ({**_traj(np.zeros((3, 7))), "joint_names": [f"j{i}" for i in range(7)]}, "joint_names"),
     "missing dt": ({k: v for k, v in _traj(np.zeros((3, 7))).items() if k != "dt"}, "dt"),
     "zero dt": (_traj(np.zeros((3, 7)), dt=0.0), "dt"),

@@ -47,5 +47,5 @@ def test_invalid_scene_is_rejected_with_file_and_reason(tmp_path):
         "name: bad\nobjects:\n  - {name: a, kind: sphere, radius_m: 0.2, xy_m: [0.4, 0]}\n"
         "  - {name: b, kind: sphere, radius_m: 0.2, xy_m: [0.45, 0]}\n"
     )
-    with pytest.raises(SceneError, match="no overlap-free placement"):
+    with pytest.raises(SceneError, match=r"no placement with seed 0 keeps the footprints 20 mm apart.*a and b"):
         place(load_scene(bad), 0)

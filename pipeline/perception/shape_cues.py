@@ -1,0 +1,135 @@
+"""Which kind of the simulator's objects a colour region is, from its silhouette and what lies inside it.
+
+Each kind gets a score in [0, 1] from a few cues measured on the region, each cue a soft interval (1 inside,
+falling to 0 within a margin): how well an ellipse fits (a ball, a plate, a bowl seen from above), elongation and
+the width profile along the long axis (a bottle's neck, a pan's handle), how many corners the outline has (a
+block's polygon against a can's rounded ends), the density of edges inside it (the rim and inner walls of a bowl,
+a pan or an open box against the smooth face of a ball or a plate), and a light neutral plate on a base (a
+scale). A region is of the kind that scores best; the scores also rank regions when a phrase names a colour.
+The intervals come from the sim's renders of each kind over its size range, views across the reach, and shading.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pipeline.perception.colour_regions import hsv
+
+KINDS = ("box", "cylinder", "sphere", "plate", "bottle", "pan", "bowl", "platform", "lidded_box")
+
+
+@dataclass(frozen=True)
+class Cues:
+    aspect: float  # bounding box width / height in the image
+    elongation: float  # long / short side of the minimum-area rectangle
+    rect_fill: float  # area / minimum-area rectangle
+    ellipse_iou: float  # overlap with the ellipse fitted to the outline
+    corners: int  # vertices of the hull's polygon at 2 % of the perimeter
+    end_width: float  # width near the narrower end / widest width, along the long axis
+    edge_density: float  # edges inside the region per sqrt(area)
+    light_plate: float  # fraction of neutral light pixels (a scale's weighing plate)
+
+
+def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
+    m = mask.astype(np.uint8)
+    v, u = np.nonzero(mask)
+    area = float(mask.sum())
+    contours, _ = cv2.findContours(m, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    outline = max(contours, key=cv2.contourArea)
+    _, (rw, rh), _ = cv2.minAreaRect(outline)
+    perimeter = cv2.arcLength(outline, True)
+    ellipse_iou = 0.0
+    if len(outline) >= 5:
+        fitted = np.zeros_like(m)
+        cv2.ellipse(fitted, cv2.fitEllipse(outline), 1, -1)
+        ellipse_iou = float((fitted.astype(bool) & mask).sum() / max((fitted.astype(bool) | mask).sum(), 1))
+    hull = cv2.approxPolyDP(cv2.convexHull(outline), 0.02 * perimeter, True)
+    inner = cv2.erode(m, np.ones((5, 5), np.uint8)).astype(bool)
+    edges = cv2.Canny(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), 30, 90).astype(bool)
+    _, sat, val = hsv(rgb)
+    return Cues(
+        aspect=float((np.ptp(u) + 1) / (np.ptp(v) + 1)),
+        elongation=float(max(rw, rh) / max(min(rw, rh), 1.0)),
+        rect_fill=float(area / max(rw * rh, 1.0)),
+        ellipse_iou=ellipse_iou,
+        corners=len(hull),
+        end_width=_end_width(u, v),
+        edge_density=float((edges & inner).sum() / max(np.sqrt(area), 1.0)),
+        light_plate=float(((sat[mask] < 0.06) & (val[mask] > 0.75)).mean()),
+    )
+
+
+def _end_width(u: np.ndarray, v: np.ndarray) -> float:
+    """Width across the long axis at the narrower end (the outer fifths) over the widest tenth."""
+    pts = np.stack([u, v], axis=1).astype(np.float64)
+    pts -= pts.mean(axis=0)
+    _, _, vt = np.linalg.svd(pts, full_matrices=False)
+    s, t = pts @ vt[0], pts @ vt[1]
+    edges = np.linspace(*np.percentile(s, [2, 98]), 11)
+    widths = np.array(
+        [np.ptp(t[(s >= a) & (s < b)]) if ((s >= a) & (s < b)).sum() > 3 else 0.0 for a, b in itertools.pairwise(edges)]
+    )
+    if widths.max() <= 0:
+        return 1.0
+    return float(min(widths[:2].mean(), widths[-2:].mean()) / widths.max())
+
+
+def _within(x: float, lo: float, hi: float, margin: float) -> float:
+    """1 inside [lo, hi], falling linearly to 0 at `margin` outside."""
+    return float(np.clip(1.0 - max(lo - x, x - hi, 0.0) / margin, 0.0, 1.0))
+
+
+def scores(c: Cues, colour: str) -> dict[str, float]:
+    """Score of each kind for a region with these cues and colour name."""
+    inf = np.inf
+    smooth = _within(c.edge_density, 0.0, 1.8, 0.8)  # no rim or inner walls inside
+    hollow = _within(c.edge_density, 3.0, inf, 0.8)  # a rim and inner walls inside
+    round_outline = _within(c.corners, 7.5, inf, 1.0)
+    plate_on_top = _within(c.light_plate, 0.15, 1.0, 0.1) if colour != "white" else 0.0
+    body = _within(c.end_width, 0.8, 1.0, 0.1)  # as wide at its ends as in its middle
+    necked = _within(c.end_width, 0.0, 0.66, 0.1) * _within(c.end_width, 0.32, 1.0, 0.1)
+    return {
+        # a ball: round and smooth; an edited goal re-projects its seen half, which stretches it upward a little
+        "sphere": _within(c.elongation, 1.0, 1.2, 0.08)
+        * _within(c.aspect, 0.75, 1.1, 0.03)
+        * _within(c.ellipse_iou, 0.94, 1.0, 0.04)
+        * smooth,
+        "bowl": _within(c.elongation, 1.0, 1.2, 0.1)
+        * _within(c.ellipse_iou, 0.92, 1.0, 0.04)
+        * _within(c.aspect, 0.85, 1.2, 0.1)
+        * hollow,
+        "plate": _within(c.aspect, 1.08, 1.5, 0.08)
+        * _within(c.ellipse_iou, 0.96, 1.0, 0.03)
+        * _within(c.edge_density, 0.0, 2.6, 0.6),
+        "pan": _within(c.end_width, 0.0, 0.3, 0.1) * _within(c.ellipse_iou, 0.0, 0.8, 0.08),
+        "platform": plate_on_top * _within(c.corners, 0.0, 6.0, 1.0) * (1.0 - 0.5 * round_outline),
+        "box": _within(c.corners, 0.0, 6.5, 2.5)
+        * _within(c.ellipse_iou, 0.0, 0.94, 0.03)
+        * _within(c.edge_density, 0.0, 2.2, 0.8)
+        * _within(c.rect_fill, 0.8, 1.0, 0.08)
+        * _within(c.elongation, 1.0, 2.0, 0.4)
+        * (1.0 - plate_on_top),
+        "lidded_box": hollow * _within(c.corners, 0.0, 6.5, 1.5) * _within(c.ellipse_iou, 0.0, 0.9, 0.04),
+        "cylinder": max(
+            _within(c.aspect, 0.45, 0.9, 0.1) * round_outline,  # upright: rounded ends
+            _within(c.elongation, 1.8, 3.6, 0.3) * _within(c.rect_fill, 0.88, 1.0, 0.05),  # lying
+        )
+        * body
+        * smooth,
+        "bottle": necked * _within(c.elongation, 1.9, 4.5, 0.3),
+    }
+
+
+UNKNOWN = "unknown"  # a region no kind fits (an inpainting smear, a fragment)
+MIN_KIND_SCORE = 0.1
+
+
+def classify(mask: np.ndarray, rgb: np.ndarray, colour: str) -> tuple[str, dict[str, float]]:
+    """The best-scoring kind of a region (UNKNOWN when none scores MIN_KIND_SCORE), and every kind's score."""
+    s = scores(cues(mask, rgb), colour)
+    best = max(s, key=s.get)
+    return (best if s[best] >= MIN_KIND_SCORE else UNKNOWN), s
