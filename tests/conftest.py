@@ -10,7 +10,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIGS = REPO / "configs"
-sys.path.insert(0, str(Path(__file__).parent))  # tests/sim_helpers.py
+sys.path.insert(0, str(Path(__file__).parent))  # tests/sim_helpers.py, tests/console_client.py
 
 
 @pytest.fixture(scope="session")

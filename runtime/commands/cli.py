@@ -195,9 +195,12 @@ def run(
 
     Exit 0 only when verification finds the goal reached; 1 failed, 3 e-stopped, 2 unusable arguments."""
     from runtime.commands.launch import run_command
+    from runtime.run.record import run_folder_problem
 
     if serve == (instruction is not None):
         _fail("give --instruction TEXT for one run, or --serve to take instructions from the console")
+    if record is not None and (problem := run_folder_problem(record)) is not None:
+        _fail(f"--record: {problem}")
     sim = {k: v for k, v in (("scene", scene), ("seed", seed)) if v is not None}
     overrides: dict = {"sim": sim} if sim else {}
     if allow_unvalidated_goal:
@@ -279,12 +282,16 @@ def console(
     config: ConfigOption = DEFAULT_CONFIG,
     port: Annotated[int, typer.Option(help="HTTP port of the operator page")] = 8080,
     host: Annotated[str, typer.Option(help="HTTP address; keep the loopback default unless behind TLS")] = "127.0.0.1",
+    allow_host: Annotated[
+        list[str] | None,
+        typer.Option(help="a host name the page may be opened under besides the address itself (repeatable)"),
+    ] = None,
 ) -> None:
     """Operator console: a web page (http://HOST:PORT) with live status, images, plan, Run/Confirm/Abort/E-STOP."""
     from runtime.messaging.console.server import serve_console
 
     profile = _load(config)
-    serve_console(profile.runtime, host, port)
+    serve_console(profile.runtime, host, port, frozenset(allow_host or ()))
 
 
 @app.command()

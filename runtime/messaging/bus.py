@@ -12,14 +12,16 @@ import contextlib
 import json
 import logging
 import threading
+import time
+from collections import Counter
 from collections.abc import Callable
 from typing import Literal
 
 import zenoh
-from pydantic import ValidationError
 
 from runtime.config import ZenohConfig
-from runtime.messaging.messages import Keys, Message
+from runtime.messaging.messages import Keys, Message, MessageRefused, decode, printable
+from runtime.messaging.throttle import Throttle
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +64,9 @@ class Bus:
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._lock = threading.Lock()
         self._declared: list = []
+        self.handled: Counter[str] = Counter()  # samples handled per subscribed key expression (refused included)
+        self.refused: Counter[str] = Counter()  # of which refused
+        self._refusal_log = Throttle(per_period=5, period_s=1.0)
 
     def _publisher(self, key: str) -> zenoh.Publisher:
         with self._lock:
@@ -82,23 +87,43 @@ class Bus:
         self._publisher(key).put(payload)
 
     def subscribe(self, key: str, schema: type[Message], callback: Callable[[str, Message], None]) -> None:
-        """Deliver validated messages; a payload that does not match the schema is logged and dropped."""
+        """Deliver checked messages (runtime.messaging.messages.decode); anything else is refused and logged with
+        its reason (a flood of refusals is logged a few times a second, with the count)."""
+
+        def deliver(sample_key: str, raw: bytes) -> None:
+            try:
+                message = decode(schema, raw, time.time())
+            except MessageRefused as e:
+                self.refuse(key, sample_key, f"{schema.__name__}: {e}")
+                return
+            callback(sample_key, message)
+
+        self.subscribe_bytes(key, deliver)
+
+    def subscribe_bytes(self, key: str, callback: Callable[[str, bytes], None], max_bytes: int | None = None) -> None:
+        """callback(sample key, payload) for every sample; one larger than `max_bytes` is refused unread."""
 
         def handler(sample: zenoh.Sample) -> None:
-            raw = sample.payload.to_bytes()
+            sample_key = str(sample.key_expr)
             try:
-                message = schema.model_validate_json(raw)
-            except ValidationError as e:
-                log.warning("dropped a malformed %s on %s: %s", schema.__name__, sample.key_expr, e.errors()[:1])
-                return
-            callback(str(sample.key_expr), message)
+                size = len(sample.payload)
+                if max_bytes is not None and size > max_bytes:
+                    self.refuse(key, sample_key, f"payload of {size} bytes (limit {max_bytes})")
+                else:
+                    callback(sample_key, sample.payload.to_bytes())
+            except Exception:  # a bug in a handler must not take Zenoh's thread down with it
+                log.exception("handler for %s failed", sample_key)
+            finally:
+                with self._lock:
+                    self.handled[key] += 1
 
         self._declared.append(self.session.declare_subscriber(key, handler))
 
-    def subscribe_bytes(self, key: str, callback: Callable[[str, bytes], None]) -> None:
-        self._declared.append(
-            self.session.declare_subscriber(key, lambda s: callback(str(s.key_expr), s.payload.to_bytes()))
-        )
+    def refuse(self, key: str, sample_key: str, reason: str) -> None:
+        """Count and log (throttled) a sample refused on `key`."""
+        with self._lock:
+            self.refused[key] += 1
+        self._refusal_log.tell(f"refused a sample on {printable(sample_key, 120)}: {reason}", log.warning)
 
     def declare_token(self, key: str) -> None:
         """A liveliness token: it vanishes for every watcher when this node closes or its link drops."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 import html
 import json
 import logging
+import os
 import time
 from pathlib import Path
 
@@ -40,8 +41,28 @@ def publish_image(bus: Bus, name: str, bgr: np.ndarray) -> None:
         bus.publish(bus.keys.image(name), jpeg.tobytes())
 
 
+def run_folder_problem(path: Path) -> str | None:
+    """Why `path` cannot take a new run, or None. A run folder is new (or empty): an earlier run's record is never
+    overwritten, and a file where the folder should be is not replaced."""
+    if path.exists() or path.is_symlink():
+        if not path.is_dir():
+            return f"{path} exists and is not a folder"
+        if any(path.iterdir()):
+            return f"{path} already holds files (an earlier run?): give a new folder"
+        return None if os.access(path, os.W_OK) else f"{path} is not writable"
+    ancestor = path.parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        return f"{ancestor} is not a folder, so {path} cannot be made"
+    return None if os.access(ancestor, os.W_OK) else f"{ancestor} is not writable, so {path} cannot be made"
+
+
 class RunRecord:
     def __init__(self, run_dir: Path, run_id: str, bus: Bus | None = None) -> None:
+        problem = run_folder_problem(run_dir)
+        if problem is not None:
+            raise FileExistsError(f"run folder: {problem}")
         self.dir = run_dir
         self.dir.mkdir(parents=True, exist_ok=True)
         self.run_id = run_id

@@ -88,7 +88,7 @@ class Runtime:
         self.machine = StateMachine(cfg.budgets_s)
         self.status = StatusPublisher(self.bus, self.machine).start()
         self.supervisor = Supervisor(self.machine, self.bus, devices.arm, devices.gripper, cfg).start()
-        self.confirm_gate = ConfirmGate(self.bus, lambda text: self.status.event(text, "warning"))
+        self.confirm_gate = ConfirmGate(self.bus, self.supervisor.notice)
         self.estop_node = (
             EStopNode(self.bus, "in_process", cfg.heartbeat_rate_hz).start()
             if (cfg.estop_node == "in_process")

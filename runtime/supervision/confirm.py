@@ -9,21 +9,23 @@ from __future__ import annotations
 
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 
 from runtime.messaging.bus import Bus
-from runtime.messaging.messages import Confirm
+from runtime.messaging.messages import Confirm, printable
 
 
 class ConfirmGate:
     def __init__(self, bus: Bus, on_reject: Callable[[str], None]) -> None:
+        """on_reject(text) tells the operator about a rejected confirm (it should throttle a flood)."""
         self.bus = bus
         self._on_reject = on_reject
         self._lock = threading.Lock()
         self._expected: str | None = None
         self._decision: Confirm | None = None
         self._decided = threading.Event()
-        self.rejected: list[Confirm] = []
+        self.rejected: deque[Confirm] = deque(maxlen=100)  # the latest, for the record; a flood costs nothing
         bus.subscribe(bus.keys.confirm, Confirm, self._on_confirm)
 
     def expect(self, plan_id: str) -> None:
@@ -41,7 +43,7 @@ class ConfirmGate:
                 return
             self.rejected.append(msg)
         waiting = f"awaiting plan {expected}" if expected else "no plan is awaiting confirmation"
-        self._on_reject(f"confirm from {msg.source} for plan {msg.plan_id} rejected: {waiting}")
+        self._on_reject(f"confirm from {printable(msg.source)} for plan {printable(msg.plan_id)} rejected: {waiting}")
 
     def wait(self, cancel: threading.Event, poll_s: float = 0.02) -> Confirm | None:
         """Block until a decision for the expected plan arrives (returned) or `cancel` is set (None).

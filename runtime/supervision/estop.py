@@ -6,6 +6,8 @@ some e-stop node younger than the deadman timeout, so a dead or frozen node stop
 
 The sim profile may run the node inside `goalvla run` (runtime.estop_node: in_process) so CI can run unattended;
 the runner refuses that on any hardware profile.
+
+On the receiving side every sample on the estop key stops the robot; `estop_reason` is what the run records.
 """
 
 from __future__ import annotations
@@ -18,7 +20,16 @@ import time
 import tty
 
 from runtime.messaging.bus import Bus
-from runtime.messaging.messages import EStop, Heartbeat
+from runtime.messaging.messages import EStop, Heartbeat, MessageRefused, decode, printable
+
+
+def estop_reason(payload: bytes) -> str:
+    """The reason an e-stop sample gives, or what was wrong with its payload (it stops the robot either way)."""
+    try:
+        msg = decode(EStop, payload, time.time())
+    except MessageRefused as e:
+        return f"e-stop sample with a bad payload ({e}): stopped all the same"
+    return f"{printable(msg.reason, 300)} (from {printable(msg.source, 64)})"
 
 
 class EStopNode:

@@ -88,10 +88,13 @@ class StateMachine:
         return self._reason
 
     def add_listener(self, listener: Callable[[Transition], None]) -> None:
-        self._listeners.append(listener)
+        with self._lock:
+            self._listeners.append(listener)
 
     def remove_listener(self, listener: Callable[[Transition], None]) -> None:
-        self._listeners.remove(listener)
+        """Waits for a transition being handed out: a listener removed after a transition began still gets it."""
+        with self._lock:
+            self._listeners.remove(listener)
 
     def seconds_in_state(self) -> float:
         return self._clock() - self._entered
@@ -108,7 +111,7 @@ class StateMachine:
         t = Transition(self._state, state, reason, time.time(), now - self._entered)
         self._state, self._reason, self._entered = state, reason, now
         self.history.append(t)
-        for listener in self._listeners:
+        for listener in tuple(self._listeners):
             listener(t)
         return t
 

@@ -1,13 +1,17 @@
 """The supervisor: everything that can stop the robot, on threads no stage can block.
 
-- An `estop` message stops the arm inside the Zenoh callback itself (no queue, no other thread in between),
-  then latches ESTOPPED.
+- Any sample on the `estop` key stops the arm inside the Zenoh callback itself (no queue, no other thread in
+  between), before its payload is even read, then latches ESTOPPED with what the payload said, or what was
+  wrong with it: an empty, garbled, oversized, newer or stale e-stop stops the robot like a good one.
 - Its own thread, at `WATCH_RATE_HZ`, reads the arm (driver health: fault codes, a driver that stops answering),
   publishes `joint_state` telemetry, enforces each state's time budget and the deadman: while EXECUTING, the
   freshest e-stop node heartbeat must be younger than `deadman_timeout_s`.
 - An e-stop node's liveliness token vanishing while EXECUTING stops at once (its process died).
 Whatever stops the run sets `cancel`, which the run loop and the executor watch; the supervisor never waits
-for them to notice: it has already called arm.stop() itself.
+for them to notice: it has already called arm.stop() itself. `cancel` is set only after the run's end is a
+transition of the state machine, so whoever wakes on it (the run record) finds the end recorded. While an
+e-stop is stopping the arm, a failure the stop itself causes (the driver refusing set-points) escalates to the
+e-stop: the run ends ESTOPPED, never FAILED by its own stop.
 """
 
 from __future__ import annotations
@@ -20,30 +24,37 @@ from drivers.errors import DriverError
 from drivers.interfaces import Arm, Gripper
 from runtime.config import RuntimeConfig
 from runtime.messaging.bus import Bus
-from runtime.messaging.messages import Command, EStop, Event, Heartbeat, JointStateMsg
+from runtime.messaging.messages import Command, Event, Heartbeat, JointStateMsg
+from runtime.messaging.throttle import Throttle
+from runtime.supervision.command_slot import CommandSlot
+from runtime.supervision.estop import estop_reason
 from runtime.supervision.states import MOVING, TERMINAL, State, StateMachine, Transition
 
 log = logging.getLogger(__name__)
 
 WATCH_RATE_HZ = 200.0
+ESTOP_REASON_WAIT_S = 0.5  # a failure caused by an e-stop in flight waits this long at most for the e-stop's reason
+MAX_HEARTBEAT_NODES = 32  # e-stop and console nodes tracked at once; a flood of invented names is refused
 
 
 class Supervisor:
     def __init__(self, machine: StateMachine, bus: Bus, arm: Arm, gripper: Gripper | None, cfg: RuntimeConfig):
         self.machine, self.bus, self.arm, self.gripper, self.cfg = machine, bus, arm, gripper, cfg
         self.cancel = threading.Event()  # set when the current run must end now
-        self.commands: list[Command] = []  # run/reset requests for a serving runtime, oldest first
-        self.command_ready = threading.Event()
+        self.commands = CommandSlot()  # run/reset requests for a serving runtime
         self._heartbeats: dict[str, float] = {}  # e-stop node -> monotonic receipt time of its last heartbeat
         self._alive: set[str] = set()
         self._lock = threading.Lock()
+        self._estopping: str | None = None  # an e-stop is stopping the arm (its reason) until the next reset
+        self._reason_known = threading.Event()  # ... and knows its reason (an e-stop sample: once its payload is read)
+        self._notices = Throttle(per_period=5, period_s=1.0)
         self._stop_thread = threading.Event()
         self._thread = threading.Thread(target=self._watch, name="supervisor", daemon=True)
         self.stop_count = 0
         self.graceful_stop = False  # the current run ends by an abort during motion: stop on the path
         machine.add_listener(self._on_transition)
         keys = bus.keys
-        bus.subscribe(keys.estop, EStop, self._on_estop)
+        bus.subscribe_bytes(keys.estop, self._on_estop_sample)
         bus.subscribe(f"{keys.heartbeat}/**", Heartbeat, self._on_heartbeat)
         bus.subscribe(keys.command, Command, self._on_command)
         bus.watch_liveliness(f"{keys.alive}/estop/**", self._on_liveliness)
@@ -71,38 +82,86 @@ class Supervisor:
                 log.exception("stop() of %s failed", type(device).__name__)
 
     def estop(self, reason: str) -> None:
+        """Stop the arm, latch ESTOPPED, then end the run (cancel)."""
+        self._stopping(reason, known=True)
         self.halt()
-        self.cancel.set()
+        self._latch(reason)
+
+    def _stopping(self, reason: str, known: bool) -> None:
+        with self._lock:
+            if self._estopping is None:
+                self._estopping = reason
+                if known:
+                    self._reason_known.set()
+                else:
+                    self._reason_known.clear()
+
+    def _latch(self, reason: str) -> None:
+        with self._lock:
+            self._estopping = reason
+            self._reason_known.set()
         if self.machine.estop(reason):
             self._event("error", f"E-STOP: {reason}")
+        self.cancel.set()
 
     def fail(self, reason: str, graceful: bool = False) -> None:
         """End the run as FAILED; stops the arm first when it may be moving. `graceful` (operator abort) leaves
         the stop to the run loop, which brings the arm to rest on its path (jerk-limited) and then stops it."""
+        if self._estopping is not None:  # an e-stop is under way: this failure is its consequence, the e-stop ends it
+            self._reason_known.wait(ESTOP_REASON_WAIT_S)  # (an e-stop sample: once its payload is read)
+            with self._lock:
+                reason = self._estopping or reason
+            self._latch(reason)
+            return
         if self.machine.state in MOVING:
             if graceful:
                 self.graceful_stop = True
             else:
                 self.halt()
-        self.cancel.set()
         if self.machine.fail(reason):
             self._event("error", reason)
+        self.cancel.set()
 
     def _on_transition(self, t: Transition) -> None:
         if t.state in TERMINAL:
-            self.cancel.set()
+            self.commands.done()  # the run ended: the operator may ask for the next one
+        elif t.state == State.IDLE and t.previous == State.ESTOPPED:
+            with self._lock:
+                self._estopping = None
         elif t.state == State.CAPTURING:
             self.cancel.clear()
             self.graceful_stop = False
 
     # -- message callbacks (Zenoh threads) ------------------------------------------------------------------
-    def _on_estop(self, _key: str, msg: EStop) -> None:
-        self.estop(f"{msg.reason} (from {msg.source})")
+    def _on_estop_sample(self, key: str, payload: bytes) -> None:
+        self._stopping(f"e-stop sample on {key}", known=False)
+        self.halt()  # first, whatever the payload holds
+        try:
+            reason = estop_reason(payload)
+        except Exception as e:  # the stop must latch even if reading the payload fails in a way nobody foresaw
+            reason = f"e-stop sample that could not be read ({type(e).__name__})"
+        self._latch(reason)
 
-    def _on_heartbeat(self, _key: str, msg: Heartbeat) -> None:
-        if msg.kind == "estop":
-            with self._lock:
-                self._heartbeats[msg.node] = time.monotonic()
+    def _on_heartbeat(self, key: str, msg: Heartbeat) -> None:
+        pattern = f"{self.bus.keys.heartbeat}/**"
+        if key != self.bus.keys.heartbeat_of(msg.node):
+            self.bus.refuse(pattern, key, f"Heartbeat: node {msg.node!r} does not match its key")
+            return
+        if msg.kind != "estop":
+            return
+        now = time.monotonic()
+        with self._lock:
+            if msg.node not in self._heartbeats and len(self._heartbeats) >= MAX_HEARTBEAT_NODES:
+                stale = [n for n, t in self._heartbeats.items() if now - t > 10 * self.cfg.deadman_timeout_s]
+                for node in stale:
+                    del self._heartbeats[node]
+                full = len(self._heartbeats) >= MAX_HEARTBEAT_NODES
+            else:
+                full = False
+            if not full:
+                self._heartbeats[msg.node] = now
+        if full:
+            self.bus.refuse(pattern, key, f"Heartbeat: more than {MAX_HEARTBEAT_NODES} e-stop nodes at once")
 
     def _on_liveliness(self, key: str, alive: bool) -> None:
         node = key.rsplit("/", 1)[-1]
@@ -115,20 +174,25 @@ class Supervisor:
                 self.estop(f"e-stop node {node} disconnected during execution")
 
     def _on_command(self, _key: str, cmd: Command) -> None:
+        state = self.machine.state
         if cmd.action == "abort":
-            if self.machine.state not in TERMINAL and self.machine.state != State.IDLE:
+            if state not in TERMINAL and state != State.IDLE:
                 self.fail(f"aborted by the operator (from {cmd.source or 'unknown'})", graceful=True)
+            else:
+                self.notice(f"abort ignored: no run in progress ({state})")
             return
-        with self._lock:
-            self.commands.append(cmd)
-        self.command_ready.set()
+        refused = self.commands.offer(cmd, state)
+        if refused is not None:
+            self.notice(refused)
 
-    def next_command(self) -> Command | None:
-        with self._lock:
-            cmd = self.commands.pop(0) if self.commands else None
-            if not self.commands:
-                self.command_ready.clear()
-            return cmd
+    def notice(self, text: str) -> None:
+        """A refusal the operator should see: logged and published as a warning event, a few per second at most."""
+
+        def say(line: str) -> None:
+            log.warning(line)
+            self._event("warning", line)
+
+        self._notices.tell(text, say)
 
     # -- deadman ------------------------------------------------------------------------------------------
     def estop_heartbeat_age(self) -> float:

@@ -53,15 +53,31 @@ def test_missing_api_key_stops_before_any_device_opens(sim_config_path, tmp_path
     assert result.exit_code == 2 and "GEMINI_API_KEY" in result.output
 
 
+@pytest.mark.parametrize("kind", ["earlier run", "file"])
+def test_record_refuses_an_existing_run_folder_before_anything_runs(sim_config_path, tmp_path, kind):
+    target = tmp_path / "run"
+    if kind == "file":
+        target.write_text("not a folder")
+    else:
+        target.mkdir()
+        (target / "summary.json").write_text('{"status": "DONE"}')
+    before = {p.name: p.read_bytes() for p in ([target] if target.is_file() else target.iterdir())}
+    args = ["run", "--config", str(sim_config_path), "--instruction", "x", "--yes", "--record", str(target)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2 and str(target) in result.output, result.output
+    assert ("already holds files" if kind != "file" else "is not a folder") in result.output
+    assert {p.name: p.read_bytes() for p in ([target] if target.is_file() else target.iterdir())} == before
+
+
 def test_unstartable_runs_are_refused_before_any_device_opens(sim_config_path, tmp_path, monkeypatch):
     """A sentence outside the offline grammar (the grammar shown), a generated scene name that is no seed, and a
     scene whose objects overlap by their outlines (a pan's handle) all exit 2 before the simulator starts."""
-    import runtime.launch
+    import runtime.commands.launch
 
     def must_not_start(*args, **kwargs):
         raise AssertionError("the run started")
 
-    monkeypatch.setattr(runtime.launch, "open_devices", must_not_start)
+    monkeypatch.setattr(runtime.commands.launch, "open_devices", must_not_start)
     base = ["run", "--config", str(sim_config_path), "--yes"]
     result = runner.invoke(app, [*base, "--instruction", "wipe the table"])
     assert result.exit_code == 2 and "not in the offline instruction grammar" in result.output

@@ -4,7 +4,9 @@ started, confirmed, e-stopped and reset by clicking the page."""
 from __future__ import annotations
 
 import shutil
+import socket
 import threading
+import time
 import urllib.error
 import urllib.request
 
@@ -16,6 +18,7 @@ from runtime.commands.serve import serve
 from runtime.config import load_profile
 from runtime.devices import open_devices
 from runtime.messaging.console.server import ConsoleServer
+from runtime.messaging.messages import Status
 from runtime.run.runner import Runtime
 from runtime.sim_truth.oracle import GroundTruthGraspStages
 from runtime.supervision.states import State
@@ -70,10 +73,16 @@ def serve_in_thread(rt, stop):
 def page():
     with playwright.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=FLAGS, headless=True)
-        page = browser.new_page()
-        page.set_default_timeout(20000)
-        yield page
+        yield new_page(browser)
         browser.close()
+
+
+def new_page(browser, bypass_csp: bool = True):
+    """A page in its own context; Playwright's wait_for_function evaluates strings, which the console's
+    Content-Security-Policy forbids, so the tests that use it bypass the policy (one test keeps it)."""
+    page = browser.new_page(bypass_csp=bypass_csp)
+    page.set_default_timeout(20000)
+    return page
 
 
 def test_click_through_a_run_then_estop_and_reset(rig, page):
@@ -108,6 +117,42 @@ def test_click_through_a_run_then_estop_and_reset(rig, page):
     page.click("#reset-btn")
     page.wait_for_function("document.getElementById('state').textContent === 'IDLE'")
     assert wait_for(lambda: not rt.arm_halted)
+
+
+def test_a_stalled_client_and_a_flood_leave_every_page_live(rig, page):
+    """A client that stops reading its event stream, then 8000 status messages: the open page and one opened
+    later still show the live state and can still stop the robot."""
+    rt, _devices, _stages, console = rig
+    page.goto(console.url)
+    page.wait_for_function("document.getElementById('state').textContent === 'IDLE'")
+    port = console.http.server_address[1]
+    stalled = socket.socket()
+    stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    stalled.connect(("127.0.0.1", port))
+    stalled.sendall(f"GET /events HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())  # never read
+    padding = "x" * 4000  # 32 MB in all: more than any socket buffers between here and a stalled client
+    for i in range(8000):
+        rt.bus.publish(rt.bus.keys.status, Status(stamp_s=time.time(), state="FLOOD", reason=f"flood {i} {padding}"))
+    later = new_page(page.context.browser)
+    later.goto(console.url)
+    for p in (page, later):  # the runtime's own status (2 Hz) wins again on both
+        p.wait_for_function("document.getElementById('state').textContent === 'IDLE'")
+        p.wait_for_selector("#conn.ok")
+    later.click("#estop-btn")
+    page.wait_for_function("document.getElementById('state').textContent === 'ESTOPPED'")
+    assert rt.machine.state == State.ESTOPPED
+    stalled.close()
+
+
+def test_the_page_works_under_its_content_security_policy(rig, page):
+    _rt, _devices, _stages, console = rig
+    strict = new_page(page.context.browser, bypass_csp=False)
+    violations = []
+    strict.on("console", lambda m: violations.append(m.text) if "Content Security Policy" in m.text else None)
+    strict.goto(console.url)
+    strict.wait_for_selector("#conn.ok")
+    strict.wait_for_selector("#state:has-text('IDLE')")
+    assert violations == []
 
 
 def test_posts_without_the_console_header_are_refused(rig):

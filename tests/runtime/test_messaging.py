@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 
 import pytest
 import zenoh
@@ -11,7 +12,7 @@ from runtime_helpers import wait_for
 
 from runtime.config import ConfigError, ZenohConfig, load_profile
 from runtime.messaging.bus import Bus, session_config
-from runtime.messaging.messages import Confirm, EStop, Heartbeat, Keys
+from runtime.messaging.messages import Confirm, EStop, Heartbeat, Keys, MessageRefused
 
 
 def test_key_space():
@@ -23,12 +24,15 @@ def test_key_space():
 
 
 def test_messages_round_trip_and_reject_unknown_fields():
-    msg = Confirm(stamp_s=1.0, plan_id="p-1", source="console")
+    now = time.time()
+    msg = Confirm(stamp_s=now, plan_id="p-1", source="console")
     assert Confirm.decode(msg.encode()) == msg
-    with pytest.raises(ValidationError):
-        Confirm.decode(b'{"stamp_s": 1, "plan_id": "p", "source": "x", "extra": 1}')
-    with pytest.raises(ValidationError):
+    with pytest.raises(MessageRefused, match="extra: extra inputs are not permitted"):
+        Confirm.decode(f'{{"v": 1, "stamp_s": {now}, "plan_id": "p", "source": "x", "extra": 1}}'.encode())
+    with pytest.raises(MessageRefused, match="not UTF-8"):
         Confirm.decode(b"\x80\x04not json")
+    with pytest.raises(ValidationError):  # senders are held to the schema too
+        Confirm(stamp_s=now, plan_id="p", source="x", extra=1)
 
 
 def test_two_nodes_talk_and_malformed_payloads_are_dropped(zenoh_cfg):
@@ -36,16 +40,17 @@ def test_two_nodes_talk_and_malformed_payloads_are_dropped(zenoh_cfg):
         got = []
         hub.subscribe(hub.keys.estop, EStop, lambda k, m: got.append(m))
         assert wait_for(lambda: _probe(node, got), period_s=0.05)  # the two sessions are connected
-        node.publish(node.keys.estop, b'{"stamp_s": 1.0}')  # no source: invalid
-        node.publish(node.keys.estop, EStop(stamp_s=2.0, source="term"))
+        node.publish(node.keys.estop, f'{{"v": 1, "stamp_s": {time.time()}}}'.encode())  # no source: invalid
+        node.publish(node.keys.estop, EStop(stamp_s=time.time(), source="term"))
         # one publisher on one key delivers in order: once "term" is in, the invalid sample was handled before it
         assert wait_for(lambda: any(m.source == "term" for m in got))
         assert [m.source for m in got if m.source != "probe"] == ["term"]
+        assert hub.refused[hub.keys.estop] == 1 and hub.handled[hub.keys.estop] >= 2
 
 
 def _probe(node: Bus, got: list) -> bool:
     """Publish a probe; True once any has arrived."""
-    node.publish(node.keys.estop, EStop(stamp_s=0.0, source="probe"))
+    node.publish(node.keys.estop, EStop(stamp_s=time.time(), source="probe"))
     return bool(got)
 
 
@@ -64,7 +69,7 @@ def test_same_session_delivers_to_itself(zenoh_cfg):
     with Bus(zenoh_cfg, "r1", "listen") as hub:
         got = []
         hub.subscribe(f"{hub.keys.heartbeat}/**", Heartbeat, lambda k, m: got.append(k))
-        hub.publish(hub.keys.heartbeat_of("x"), Heartbeat(stamp_s=0, node="x", kind="estop", seq=1))
+        hub.publish(hub.keys.heartbeat_of("x"), Heartbeat(stamp_s=time.time(), node="x", kind="estop", seq=1))
         assert wait_for(lambda: got == ["goalvla/r1/heartbeat/x"])
 
 

@@ -185,10 +185,10 @@ def test_confirm_for_a_stale_plan_is_rejected(session, tmp_path):
         th, box = run_async(rt, tmp_path)
         assert wait_for(lambda: rt.machine.state == State.AWAITING_CONFIRM, 10)
         plan_id = rt.status.plan_id
-        console.publish(console.keys.confirm, Confirm(stamp_s=0, plan_id="old-plan", source="console"))
+        console.publish(console.keys.confirm, Confirm(stamp_s=time.time(), plan_id="old-plan", source="console"))
         assert wait_for(lambda: any("old-plan rejected" in e for e in events))
         assert rt.machine.state == State.AWAITING_CONFIRM and stages.streamed == 0
-        console.publish(console.keys.confirm, Confirm(stamp_s=0, plan_id=plan_id, source="console"))
+        console.publish(console.keys.confirm, Confirm(stamp_s=time.time(), plan_id=plan_id, source="console"))
         th.join(20)
     assert box["result"].ok and box["result"].summary.confirmation.source == "console"
 
@@ -200,7 +200,7 @@ def test_abort_during_execution_stops_on_the_path(session, tmp_path):
     with Bus(cfg.zenoh, cfg.robot_id, "connect") as console:
         th, box = run_async(rt, tmp_path)
         assert stages.executing.wait(10) and wait_for(lambda: stages.streamed >= UNDER_WAY, 5)
-        console.publish(console.keys.command, Command(stamp_s=0, action="abort", source="console"))
+        console.publish(console.keys.command, Command(stamp_s=time.time(), action="abort", source="console"))
         th.join(5)
     reason = "aborted by the operator (from console)"
     assert box["result"].status == State.FAILED and box["result"].reason == reason

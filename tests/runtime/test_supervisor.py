@@ -123,7 +123,7 @@ def test_abort_command_and_telemetry_rate(rig):
     rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
     assert rate >= 45.0, f"joint_state at {rate:.1f} Hz"
     _to_executing(machine)
-    node_bus.publish(node_bus.keys.command, Command(stamp_s=0, action="abort", source="console"))
+    node_bus.publish(node_bus.keys.command, Command(stamp_s=time.time(), action="abort", source="console"))
     assert wait_for(lambda: machine.state == State.FAILED)
     assert machine.reason == "aborted by the operator (from console)"
     # an abort during motion is graceful: the run loop brings the arm to rest on its path, then stops it

@@ -1,16 +1,26 @@
-"""`goalvla console`: serves the operator page and bridges it to Zenoh.
+"""`goalvla console`: serves the operator page and bridges it to Zenoh (runtime.messaging.console.bridge).
 
 Downstream, one server-sent-events stream per page carries status, events, plan summaries, throttled joint
 states and "image updated" notices (the page then fetches /image/<name>). Upstream, small JSON POSTs become
-Zenoh messages: command (run, abort, reset), confirm (with the plan id the page shows) and estop. POSTs must
-carry the X-Goalvla header (a cross-site page cannot add it without a CORS preflight, which is never granted).
+Zenoh messages: command (run, abort, reset), confirm (with the plan id the page shows) and estop.
+
+The server is the standard library's threaded HTTP/1.1 server, held to what an operator page needs: every
+request's Host and Origin are this console's (runtime.messaging.console.guard); POSTs carry the X-Goalvla
+header, a Content-Length of at most MAX_BODY_BYTES (read within BODY_TIMEOUT_S) and a strict JSON object; the
+E-STOP is published before its body is even looked at. Connections are capped, idle ones time out, a stalled
+event stream is dropped after STREAM_WRITE_TIMEOUT_S, client disconnects are not errors, and Ctrl-C ends it at
+once. Every refusal is a 4xx with a JSON `error` naming the problem.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import queue
+import signal
+import socket
+import sys
 import threading
 import time
 from http import HTTPStatus
@@ -19,213 +29,307 @@ from importlib import resources
 
 from runtime.config import RuntimeConfig
 from runtime.messaging.bus import Bus
-from runtime.messaging.messages import Command, Confirm, EStop, Event, Heartbeat, JointStateMsg, PlanSummary, Status
+from runtime.messaging.console.bridge import ACTIONS, ActionRefused, Bridge, PageStream
+from runtime.messaging.console.guard import Guard, Refusal
+from runtime.messaging.messages import MessageRefused, read_json
 
 log = logging.getLogger(__name__)
 
-JOINT_STATE_PAGE_HZ = 10.0
 KEEPALIVE_S = 1.0
+MAX_BODY_BYTES = 16 * 1024  # the page posts a few hundred bytes at most
+BODY_TIMEOUT_S = 2.0  # a body shorter than its Content-Length is refused after this, not waited for
+IDLE_TIMEOUT_S = 10.0  # a connection that sends nothing for this long is closed
+STREAM_WRITE_TIMEOUT_S = 5.0  # a page that takes no events for this long is dropped
+MAX_CONNECTIONS = 64
+POLL_S = 0.1  # how often the server looks for a shutdown request
 STATIC = {
     "/": ("index.html", "text/html"),
     "/app.js": ("app.js", "text/javascript"),
     "/style.css": ("style.css", "text/css"),
 }
+SECURITY_HEADERS = {
+    "Cache-Control": "no-store",
+    "X-Content-Type-Options": "nosniff",
+    "X-Frame-Options": "DENY",
+    "Content-Security-Policy": "default-src 'self'; frame-ancestors 'none'",
+    "Referrer-Policy": "no-referrer",
+}
+GONE = (ConnectionError, TimeoutError)  # the client left, reset, or stopped reading: not the console's error
 
 
-class Bridge:
-    """Latest of everything the runtime publishes, fanned out to connected pages."""
+class Handler(BaseHTTPRequestHandler):
+    protocol_version = "HTTP/1.1"
+    timeout = IDLE_TIMEOUT_S
+    server: ConsoleHTTPServer
 
-    def __init__(self, bus: Bus, node: str = "console") -> None:
-        self.bus, self.node = bus, node
-        self._lock = threading.Lock()
-        self._clients: list[queue.Queue] = []
-        self.latest: dict[str, dict] = {}
-        self.images: dict[str, tuple[int, bytes]] = {}
-        self._last_joint_push = 0.0
-        keys = bus.keys
-        bus.subscribe(keys.status, Status, lambda k, m: self._push("status", m.model_dump()))
-        bus.subscribe(keys.events, Event, lambda k, m: self._push("event", m.model_dump(), keep=False))
-        bus.subscribe(keys.plan, PlanSummary, lambda k, m: self._push("plan", m.model_dump()))
-        bus.subscribe(keys.joint_state, JointStateMsg, self._on_joint_state)
-        bus.subscribe_bytes(f"{keys.images}/*", self._on_image)
-        self._seq = 0
-        self._stop = threading.Event()
-        threading.Thread(target=self._heartbeat, name="console-heartbeat", daemon=True).start()
+    def log_message(self, fmt: str, *args) -> None:
+        log.debug("console http %s: " + fmt, self.client_address[0], *args)
 
-    def _push(self, kind: str, data: dict, keep: bool = True) -> None:
-        item = {"type": kind, "data": data}
-        with self._lock:
-            if keep:
-                self.latest[kind] = item
-            clients = list(self._clients)
-        for q in clients:
-            q.put(item)
-
-    def _on_joint_state(self, _key: str, msg: JointStateMsg) -> None:
-        now = time.monotonic()
-        if now - self._last_joint_push >= 1.0 / JOINT_STATE_PAGE_HZ:
-            self._last_joint_push = now
-            self._push("joint_state", msg.model_dump())
-
-    def _on_image(self, key: str, payload: bytes) -> None:
-        name = key.rsplit("/", 1)[-1]
-        with self._lock:
-            version = self.images.get(name, (0, b""))[0] + 1
-            self.images[name] = (version, payload)
-        self._push("image", {"name": name, "version": version}, keep=False)
-
-    def attach(self) -> queue.Queue:
-        q: queue.Queue = queue.Queue(maxsize=1000)
-        with self._lock:
-            self._clients.append(q)
-            for item in self.latest.values():
-                q.put(item)
-            for name, (version, _) in self.images.items():
-                q.put({"type": "image", "data": {"name": name, "version": version}})
-        return q
-
-    def detach(self, q: queue.Queue) -> None:
-        with self._lock:
-            if q in self._clients:
-                self._clients.remove(q)
-
-    def _heartbeat(self) -> None:
-        """The console's own presence (kind console: shown to operators, not a deadman for execution)."""
-        key = self.bus.keys.heartbeat_of(self.node)
-        while not self._stop.wait(0.5):
-            self._seq += 1
-            self.bus.publish(key, Heartbeat(stamp_s=time.time(), node=self.node, kind="console", seq=self._seq))
-
-    def close(self) -> None:
-        self._stop.set()
-
-    # -- operator actions ---------------------------------------------------------------------------------
-    def act(self, action: str, body: dict) -> str:
-        keys, now = self.bus.keys, time.time()
-        if action == "estop":
-            self.bus.publish(keys.estop, EStop(stamp_s=now, source=self.node, reason="console E-STOP button"))
-        elif action == "confirm":
-            plan_id = str(body.get("plan_id", ""))
-            if not plan_id:
-                raise ValueError("confirm needs the plan_id shown on the page")
-            self.bus.publish(
-                keys.confirm,
-                Confirm(stamp_s=now, plan_id=plan_id, source=self.node, approve=bool(body.get("approve", True))),
-            )
-        elif action in ("run", "abort", "reset"):
-            instruction = str(body.get("instruction", "")).strip()
-            if action == "run" and not instruction:
-                raise ValueError("run needs an instruction")
-            self.bus.publish(
-                keys.command, Command(stamp_s=now, action=action, instruction=instruction, source=self.node)
-            )
-        else:
-            raise KeyError(action)
-        return action
-
-
-def make_handler(bridge: Bridge):
-    class Handler(BaseHTTPRequestHandler):
-        protocol_version = "HTTP/1.1"
-
-        def log_message(self, fmt: str, *args) -> None:
-            log.debug("console http: " + fmt, *args)
-
-        def _send(self, status: int, body: bytes, content_type: str, extra: dict | None = None) -> None:
-            self.send_response(status)
-            self.send_header("Content-Type", content_type)
-            self.send_header("Content-Length", str(len(body)))
-            self.send_header("Cache-Control", "no-store")
-            for k, v in (extra or {}).items():
-                self.send_header(k, v)
-            self.end_headers()
+    # -- answers ----------------------------------------------------------------------------------------------
+    def _send(self, status: int, body: bytes, content_type: str, extra: dict | None = None) -> None:
+        self.send_response(status)
+        self.send_header("Content-Type", content_type)
+        self.send_header("Content-Length", str(len(body)))
+        for k, v in {**SECURITY_HEADERS, **(extra or {})}.items():
+            self.send_header(k, v)
+        if self.close_connection:
+            self.send_header("Connection", "close")
+        self.end_headers()
+        if self.command != "HEAD":
             self.wfile.write(body)
 
-        def do_GET(self) -> None:
-            path = self.path.split("?", 1)[0]
-            if path in STATIC:
-                name, ctype = STATIC[path]
-                body = resources.files("runtime.messaging.console").joinpath("static", name).read_bytes()
-                self._send(HTTPStatus.OK, body, f"{ctype}; charset=utf-8")
-            elif path.startswith("/image/"):
-                _version, data = bridge.images.get(path.removeprefix("/image/"), (0, b""))
-                if not data:
-                    self._send(HTTPStatus.NOT_FOUND, b"no such image yet", "text/plain")
-                else:
-                    self._send(HTTPStatus.OK, data, "image/jpeg")
-            elif path == "/events":
-                self._stream()
+    def _json(self, status: int, doc: dict) -> None:
+        self._send(status, json.dumps(doc).encode(), "application/json")
+
+    def _refuse(self, refusal: Refusal, close: bool = False, **extra) -> None:
+        self.close_connection = self.close_connection or close
+        self._json(refusal.status, {"error": refusal.reason, **extra})
+
+    def send_error(self, code: int, message: str | None = None, explain: str | None = None) -> None:
+        """http.server's own refusals (bad request lines, headers, methods), as 4xx JSON like every other."""
+        code = int(code)
+        if code == HTTPStatus.NOT_IMPLEMENTED:  # a method this console does not have
+            code, message = HTTPStatus.METHOD_NOT_ALLOWED, f"method {self.command!r} not allowed (GET, POST)"
+        elif code >= 500:  # 505: an HTTP version it does not speak is the request's problem
+            code = HTTPStatus.BAD_REQUEST
+        self.close_connection = True
+        self.request_version = "HTTP/1.1"  # (http.server answers a request it could not parse without a status line)
+        reason = message or HTTPStatus(code).phrase
+        try:
+            extra = {"Allow": "GET, POST"} if code == HTTPStatus.METHOD_NOT_ALLOWED else None
+            self._send(code, json.dumps({"error": reason}).encode(), "application/json", extra)
+        except GONE:
+            pass
+
+    def parse_request(self) -> bool:
+        if not super().parse_request():
+            return False
+        if self.request_version not in ("HTTP/1.0", "HTTP/1.1"):  # HTTP/0.9 answers carry no status: refuse it
+            self.send_error(HTTPStatus.BAD_REQUEST, f"{self.request_version} is not spoken here (HTTP/1.1)")
+            return False
+        return True
+
+    def _admit(self) -> bool:
+        refusal = self.server.guard.check(self.headers, self.connection.getsockname()[0])
+        if refusal is not None:
+            self._refuse(refusal, close=True)
+            return False
+        return True
+
+    # -- GET ----------------------------------------------------------------------------------------------------
+    def do_GET(self) -> None:
+        if not self._admit():
+            return
+        if self.headers.get("Transfer-Encoding") or self.headers.get("Content-Length", "0").strip() != "0":
+            self.close_connection = True  # a GET body is never read: nothing after it can be trusted as a request
+        path = self.path.split("?", 1)[0]
+        bridge = self.server.bridge
+        if path in STATIC:
+            name, ctype = STATIC[path]
+            body = resources.files("runtime.messaging.console").joinpath("static", name).read_bytes()
+            self._send(HTTPStatus.OK, body, f"{ctype}; charset=utf-8")
+        elif path.startswith("/image/"):
+            _version, data = bridge.images.get(path.removeprefix("/image/"), (0, b""))
+            if not data:
+                self._refuse(Refusal(HTTPStatus.NOT_FOUND, "no such image yet"))
             else:
-                self._send(HTTPStatus.NOT_FOUND, b"not found", "text/plain")
+                self._send(HTTPStatus.OK, data, "image/jpeg")
+        elif path == "/events":
+            self._stream()
+        else:
+            self._refuse(Refusal(HTTPStatus.NOT_FOUND, "not found"))
 
-        def _stream(self) -> None:
-            self.send_response(HTTPStatus.OK)
-            self.send_header("Content-Type", "text/event-stream")
-            self.send_header("Cache-Control", "no-store")
-            self.end_headers()
-            q = bridge.attach()
-            try:
-                while True:
-                    try:
-                        item = q.get(timeout=KEEPALIVE_S)
-                        self.wfile.write(f"data: {json.dumps(item)}\n\n".encode())
-                    except queue.Empty:
-                        self.wfile.write(b": keep-alive\n\n")
-                    self.wfile.flush()
-            except (BrokenPipeError, ConnectionResetError):
-                pass
-            finally:
-                bridge.detach(q)
-                self.close_connection = True
+    def _stream(self) -> None:
+        bridge = self.server.bridge
+        self.close_connection = True
+        self.connection.settimeout(STREAM_WRITE_TIMEOUT_S)
+        self.send_response(HTTPStatus.OK)
+        self.send_header("Content-Type", "text/event-stream")
+        for k, v in SECURITY_HEADERS.items():
+            self.send_header(k, v)
+        self.send_header("Connection", "close")
+        self.end_headers()
+        page = bridge.attach()
+        try:
+            self.wfile.write(b"retry: 1000\n\n")  # a dropped page reconnects within a second
+            self._pump(page)
+        except GONE:
+            pass  # the page left, or stopped taking events for STREAM_WRITE_TIMEOUT_S
+        finally:
+            bridge.detach(page)
 
-        def do_POST(self) -> None:
-            if self.headers.get("X-Goalvla") != "1":
-                self._send(HTTPStatus.FORBIDDEN, b"missing X-Goalvla header", "text/plain")
-                return
-            action = self.path.removeprefix("/api/")
+    def _pump(self, page: PageStream) -> None:
+        bridge = self.server.bridge
+        while not page.dropped.is_set() and not bridge.closed.is_set():
             try:
-                length = int(self.headers.get("Content-Length", "0"))
-                body = json.loads(self.rfile.read(length) or b"{}")
-                if not isinstance(body, dict):
-                    raise ValueError("body must be a JSON object")
+                frame = page.events.get(timeout=KEEPALIVE_S)
+            except queue.Empty:
+                frame = b": keep-alive\n\n"
+            self.wfile.write(frame)
+
+    # -- POST ---------------------------------------------------------------------------------------------------
+    def do_POST(self) -> None:
+        if not self._admit():
+            return
+        action = self.path.split("?", 1)[0].removeprefix("/api/")
+        if not self.path.startswith("/api/") or action not in ACTIONS:
+            self._refuse(Refusal(HTTPStatus.NOT_FOUND, "unknown action"), close=True)
+            return
+        if self.headers.get("X-Goalvla") != "1":
+            self._refuse(Refusal(HTTPStatus.FORBIDDEN, "missing X-Goalvla header"), close=True)
+            return
+        bridge = self.server.bridge
+        if action == "estop":
+            bridge.estop()  # before the body: a malformed e-stop request still stops
+        try:
+            body = self._body()
+            if action != "estop":
                 bridge.act(action, body)
-            except KeyError:
-                self._send(HTTPStatus.NOT_FOUND, b'{"error": "unknown action"}', "application/json")
-            except ValueError as e:
-                self._send(HTTPStatus.BAD_REQUEST, json.dumps({"error": str(e)}).encode(), "application/json")
-            else:
-                self._send(HTTPStatus.OK, json.dumps({"ok": True, "action": action}).encode(), "application/json")
+        except (BodyRefused, MessageRefused, ActionRefused) as e:
+            status = getattr(e, "status", HTTPStatus.BAD_REQUEST)
+            extra = {"estop_sent": True} if action == "estop" else {}
+            self._refuse(Refusal(status, str(e)), close=getattr(e, "close", False), **extra)
+            return
+        self._json(HTTPStatus.OK, {"ok": True, "action": action})
 
-    return Handler
+    def _body(self) -> dict:
+        """The request's JSON object ({} when it has none), read within BODY_TIMEOUT_S."""
+        if self.headers.get_all("Transfer-Encoding"):
+            raise BodyRefused(HTTPStatus.LENGTH_REQUIRED, "send a Content-Length; chunked bodies are not accepted")
+        lengths = self.headers.get_all("Content-Length") or []
+        if len(lengths) > 1:
+            raise BodyRefused(HTTPStatus.BAD_REQUEST, "more than one Content-Length")
+        text = lengths[0].strip() if lengths else "0"
+        if not (text.isascii() and text.isdigit() and len(text) <= 12):
+            raise BodyRefused(HTTPStatus.BAD_REQUEST, "Content-Length must be a number of bytes")
+        length = int(text)
+        if length > MAX_BODY_BYTES:
+            raise BodyRefused(HTTPStatus.REQUEST_ENTITY_TOO_LARGE, f"body of {length} bytes (limit {MAX_BODY_BYTES})")
+        raw = self._read(length)
+        return read_json(raw) if raw else {}
+
+    def _read(self, length: int) -> bytes:
+        deadline = time.monotonic() + BODY_TIMEOUT_S
+        chunks, got = [], 0
+        try:
+            while got < length:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise TimeoutError
+                self.connection.settimeout(left)
+                chunk = self.rfile.read1(length - got)
+                if not chunk:
+                    break
+                chunks.append(chunk)
+                got += len(chunk)
+        except TimeoutError:
+            pass
+        finally:
+            self.connection.settimeout(IDLE_TIMEOUT_S)
+        if got < length:
+            raise BodyRefused(HTTPStatus.BAD_REQUEST, f"body of {got} bytes, shorter than its Content-Length {length}")
+        return b"".join(chunks)
+
+
+class BodyRefused(ValueError):
+    """A request body that is not read (or not in full); the connection is closed after the answer."""
+
+    close = True
+
+    def __init__(self, status: HTTPStatus, reason: str) -> None:
+        super().__init__(reason)
+        self.status = status
+
+
+class ConsoleHTTPServer(ThreadingHTTPServer):
+    """ThreadingHTTPServer with a cap on connections and quiet client disconnects."""
+
+    daemon_threads = True
+    block_on_close = False
+    request_queue_size = 2 * MAX_CONNECTIONS  # a burst waits to be answered (or refused), never a lost connect
+
+    def __init__(self, address: tuple[str, int], bridge: Bridge, extra_hosts: frozenset[str] = frozenset()):
+        self.address_family = socket.AF_INET6 if ":" in address[0] else socket.AF_INET
+        super().__init__(address, Handler)
+        self.bridge = bridge
+        self.guard = Guard(self.server_address[1], frozenset(h.lower() for h in extra_hosts))
+        self._slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
+        self.closing = False
+
+    def process_request(self, request: socket.socket, client_address) -> None:
+        if not self._slots.acquire(blocking=False):
+            body = b'{"error": "too many connections"}'
+            head = f"HTTP/1.1 429 Too Many Requests\r\nContent-Type: application/json\r\nContent-Length: {len(body)}"
+            with contextlib.suppress(OSError):  # (on the accepting thread: a short answer, never a long wait)
+                request.settimeout(0.2)
+                request.sendall(f"{head}\r\nRetry-After: 1\r\nConnection: close\r\n\r\n".encode() + body)
+            self.shutdown_request(request)
+            return
+        super().process_request(request, client_address)
+
+    def process_request_thread(self, request: socket.socket, client_address) -> None:
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            self._slots.release()
+
+    def handle_error(self, request: socket.socket, client_address) -> None:
+        error = sys.exc_info()[1]
+        if isinstance(error, GONE) or (self.closing and isinstance(error, OSError)):
+            log.debug("console: client %s left (%s)", client_address, type(error).__name__)
+        else:
+            log.error("console: request from %s failed", client_address, exc_info=error)
 
 
 class ConsoleServer:
     """The bridge plus its HTTP server; `start()` serves on a background thread (tests), `serve_forever` blocks."""
 
-    def __init__(self, cfg: RuntimeConfig, host: str = "127.0.0.1", port: int = 8080) -> None:
+    def __init__(
+        self,
+        cfg: RuntimeConfig,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        extra_hosts: frozenset[str] = frozenset(),
+    ) -> None:
         self.bus = Bus(cfg.zenoh, cfg.robot_id, "connect")
         self.bridge = Bridge(self.bus)
-        self.http = ThreadingHTTPServer((host, port), make_handler(self.bridge))
-        self.http.daemon_threads = True
-        self.url = f"http://{host}:{self.http.server_address[1]}/"
+        try:
+            self.http = ConsoleHTTPServer((host, port), self.bridge, extra_hosts)
+        except OSError:
+            self.bridge.close()
+            self.bus.close()
+            raise
+        shown = f"[{host}]" if ":" in host else host
+        self.url = f"http://{shown}:{self.http.server_address[1]}/"
+        self._thread: threading.Thread | None = None
 
     def start(self) -> ConsoleServer:
-        threading.Thread(target=self.http.serve_forever, name="console-http", daemon=True).start()
+        self._thread = threading.Thread(target=self.serve_forever, name="console-http", daemon=True)
+        self._thread.start()
         return self
 
+    def serve_forever(self) -> None:
+        self.http.serve_forever(poll_interval=POLL_S)
+
     def close(self) -> None:
-        self.http.shutdown()
-        self.http.server_close()
+        """Ends the event streams and the server; quick, whatever the pages do."""
+        self.http.closing = True
         self.bridge.close()
+        if self._thread is not None:
+            self.http.shutdown()
+        self.http.server_close()
         self.bus.close()
 
 
-def serve_console(cfg: RuntimeConfig, host: str, port: int) -> None:
-    server = ConsoleServer(cfg, host, port)
+def serve_console(cfg: RuntimeConfig, host: str, port: int, extra_hosts: frozenset[str] = frozenset()) -> None:
+    server = ConsoleServer(cfg, host, port, extra_hosts)
     print(f"operator console on {server.url} (robot {cfg.robot_id}, runtime at {cfg.zenoh.endpoint}); Ctrl-C quits")
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):  # Ctrl-C, or a service manager's stop
+        signal.signal(sig, lambda *_: stop.set())
+    server.start()  # (the server runs on its own thread: a signal never lands inside it)
     try:
-        server.http.serve_forever()
-    except KeyboardInterrupt:
-        pass
+        while not stop.wait(1.0):
+            pass
     finally:
         server.close()

@@ -16,6 +16,7 @@ function addEvent(e) {
   li.className = e.level || "info";
   li.textContent = new Date().toLocaleTimeString() + "  " + e.text;
   $("events").prepend(li);
+  while ($("events").children.length > 200) $("events").lastElementChild.remove(); // a flood stays a page
 }
 
 function refreshConfirm() {
