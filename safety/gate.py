@@ -109,6 +109,11 @@ def _collision_violations(configs, times, widths, world: CollisionWorld, budget=
             world.set_gripper_width(w)
             width = w
         if world.in_collision(q):
+            if budget is not None:
+                if budget.configurations_left <= 0:
+                    budget.omitted += 1
+                    continue
+                budget.configurations_left -= 1
             for c in world.check(q):
                 if budget is None or budget.take(c.kind, 1):
                     detail = f"{c.first} touches {c.second} (padding {world.config.padding_m} m)"

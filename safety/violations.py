@@ -1,7 +1,10 @@
 """What the gate reports: every violation with its time, kind, the joints or links involved and the numbers.
 
 A trajectory wrong everywhere would report millions of violations; at most MAX_LISTED_PER_KIND of each kind (the
-first found, in time order) are listed and the rest counted (`GateReport.omitted`), so memory stays bounded.
+first found, in time order) are listed and the rest counted (`GateReport.omitted`), so memory stays bounded. Naming
+the touching pairs of a colliding configuration costs ten times the check itself, so only the first
+MAX_NAMED_CONFIGURATIONS colliding configurations are named pair by pair; each one after them counts as one omitted
+violation, which keeps time bounded too.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ ViolationKind = Literal[
     "unchecked",  # beyond what the gate checks (samples, collision checks): refused without a verdict
 ]
 MAX_LISTED_PER_KIND = 1000
+MAX_NAMED_CONFIGURATIONS = 4 * MAX_LISTED_PER_KIND
 
 
 @dataclass(frozen=True)
@@ -57,6 +61,7 @@ class ListingBudget:
 
     per_kind: int = MAX_LISTED_PER_KIND
     omitted: int = 0
+    configurations_left: int = MAX_NAMED_CONFIGURATIONS  # colliding configurations whose pairs may still be named
     _listed: dict[str, int] = field(default_factory=dict)
 
     def take(self, kind: ViolationKind, hits: int) -> int:
