@@ -237,6 +237,29 @@ def _refuse_unstartable(profile, instruction: str | None) -> None:
 
 
 @app.command()
+def view(
+    run_dir: Annotated[Path, typer.Argument(help="a run folder (with run.rrd)")],
+    web: Annotated[
+        bool | None,
+        typer.Option("--web/--native", help="force the web or the native viewer (default: native with a display)"),
+    ] = None,
+    bind: Annotated[str, typer.Option(help="web viewer address; keep the loopback unless you know why")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="web viewer HTTP port")] = 9090,
+    grpc_port: Annotated[int, typer.Option(help="port the web viewer reads the recording from")] = 9876,
+) -> None:
+    """Open a run's Rerun recording: the native viewer, or the web viewer on the loopback without a display."""
+    from runtime.commands.view import ViewError, environment, plan_view
+    from runtime.commands.view import view as open_viewer
+
+    env = environment()
+    try:
+        plan = plan_view(run_dir, env, None if web is None else ("web" if web else "native"), bind, port, grpc_port)
+        raise typer.Exit(open_viewer(plan, env, typer.echo))
+    except ViewError as e:
+        _fail(str(e))
+
+
+@app.command()
 def estop(
     config: ConfigOption = DEFAULT_CONFIG,
     node: Annotated[str, typer.Option(help="this node's name in heartbeat/<node>")] = "estop-terminal",

@@ -9,11 +9,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")  # before pyplot: never a window, never a display
-
-import matplotlib.pyplot as plt
 import numpy as np
 
 from runtime.run.summary import RunSummary
@@ -30,7 +25,18 @@ STATE_COLOURS = {
     "EXECUTING": "#a6d854",
     "VERIFYING": "#ffd92f",
 }
+JOINT_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2")
 END_COLOURS = {"DONE": "#1a7f37", "FAILED": "#b35900", "ESTOPPED": "#cc0000"}
+
+
+def _pyplot():
+    """pyplot on the Agg backend (never a window or a display), imported when a report is drawn, not at start-up."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def _phase_starts(traj: RunTrajectories) -> list[float]:
@@ -53,42 +59,46 @@ def _shade_phases(ax, traj: RunTrajectories, starts: list[float], label: bool) -
 
 def _save(fig, path: Path) -> Path:
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
+    _pyplot().close(fig)
     return path
 
 
 def joints_plot(traj: RunTrajectories, path: Path) -> Path | None:
-    """Per joint, position (left) and velocity (right) against their limits; planned lines, measured dots."""
+    """Every joint's position as a fraction of its range (limits at 0 and 1) and its velocity as a fraction of
+    its limit (limits at -1 and 1), planned (lines) and measured (dashed), over the phases."""
     if not traj.planned:
         return None
-    dof = len(traj.joint_names)
+    plt = _pyplot()
     starts = _phase_starts(traj)
-    fig, axes = plt.subplots(dof, 2, figsize=(11, 1.25 * dof + 0.8), sharex=True, squeeze=False)
+    span = traj.upper - traj.lower
+    fig, (ax_q, ax_v) = plt.subplots(2, 1, figsize=(11, 5.2), sharex=True)
+    fig.subplots_adjust(left=0.07, right=0.86, top=0.93, bottom=0.09, hspace=0.18)
+    for ax in (ax_q, ax_v):
+        _shade_phases(ax, traj, starts, label=ax is ax_q)
+        ax.tick_params(labelsize=7)
     for j, name in enumerate(traj.joint_names):
-        ax_q, ax_v = axes[j]
-        for ax in (ax_q, ax_v):
-            _shade_phases(ax, traj, starts, label=j == 0)
-            ax.tick_params(labelsize=7)
-        for p, t0 in zip(traj.planned, starts, strict=True):
-            t = t0 + p.times
-            ax_q.plot(t, p.positions[:, j], color="#1f4e9c", lw=1.2)
-            ax_v.plot(t, p.velocities[:, j], color="#1f4e9c", lw=1.2)
+        colour = JOINT_COLOURS[j % len(JOINT_COLOURS)]
+        for k, (p, t0) in enumerate(zip(traj.planned, starts, strict=True)):
+            step = max(1, len(p.positions) // 400)
+            t = t0 + p.times[::step]
+            label = name if k == 0 else None
+            ax_q.plot(t, (p.positions[::step, j] - traj.lower[j]) / span[j], color=colour, lw=1.1, label=label)
+            ax_v.plot(t, p.velocities[::step, j] / traj.velocity_limit[j], color=colour, lw=1.1)
         for e in traj.executed:
             if len(e.times_s):
-                ax_q.plot(e.start_s + e.times_s, e.q_meas[:, j], color="#d62728", lw=0.8, ls="--")
-        for ax, lo, hi in (
-            (ax_q, traj.lower[j], traj.upper[j]),
-            (ax_v, -traj.velocity_limit[j], traj.velocity_limit[j]),
-        ):
-            ax.axhline(lo, color="k", lw=0.8, ls=":")
-            ax.axhline(hi, color="k", lw=0.8, ls=":")
-        ax_q.set_ylabel(f"{name}\n[rad]", fontsize=8)
-        ax_v.set_ylabel("[rad/s]", fontsize=8)
-    axes[0, 0].set_title("joint position: planned (blue), measured (red dashed), limits (dotted)", fontsize=9, pad=14)
-    axes[0, 1].set_title("joint velocity (planned) and its limit", fontsize=9, pad=14)
-    for ax in axes[-1]:
-        ax.set_xlabel("time from the start of the motion [s]", fontsize=8)
-    fig.tight_layout()
+                step = max(1, len(e.times_s) // 400)
+                q = (e.q_meas[::step, j] - traj.lower[j]) / span[j]
+                ax_q.plot(e.start_s + e.times_s[::step], q, color=colour, lw=0.8, ls="--")
+    for ax, limits in ((ax_q, (0.0, 1.0)), (ax_v, (-1.0, 1.0))):
+        for limit in limits:
+            ax.axhline(limit, color="#cc0000", lw=1.0, ls=":")
+    ax_q.set_ylim(-0.05, 1.05)
+    ax_v.set_ylim(-1.1, 1.1)
+    ax_q.set_ylabel("position / range\n(0 and 1: limits)", fontsize=8)
+    ax_v.set_ylabel("velocity / limit", fontsize=8)
+    ax_q.set_title("planned (solid), measured (dashed), limits (red dotted)", fontsize=9, pad=16)
+    ax_v.set_xlabel("time from the start of the motion [s]", fontsize=8)
+    ax_q.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     return _save(fig, path)
 
 
@@ -96,17 +106,19 @@ def tracking_plot(traj: RunTrajectories, bound_rad: float, lag_s: float, path: P
     """The largest joint's |measured - commanded| per tick, per phase, against the executor's bound."""
     if not traj.executed:
         return None
-    fig, ax = plt.subplots(figsize=(11, 2.4))
+    fig, ax = _pyplot().subplots(figsize=(11, 2.4))
+    fig.subplots_adjust(left=0.07, right=0.86, top=0.86, bottom=0.2)
     _shade_phases(ax, traj, _phase_starts(traj), label=True)
     for e in traj.executed:
         if len(e.times_s):
-            ax.plot(e.start_s + e.times_s, np.degrees(e.tracking_error_rad(lag_s)), lw=1.0, color="#1f4e9c")
+            step = max(1, len(e.times_s) // 600)
+            error = np.degrees(e.tracking_error_rad(lag_s))[::step]
+            ax.plot(e.start_s + e.times_s[::step], error, lw=1.0, color="#1f4e9c")
     ax.axhline(np.degrees(bound_rad), color="#cc0000", lw=1, ls="--", label=f"bound {np.degrees(bound_rad):.1f} deg")
     ax.set_ylabel("tracking error [deg]", fontsize=8)
     ax.set_xlabel("time from the start of the motion [s]", fontsize=8)
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     ax.tick_params(labelsize=7)
-    fig.tight_layout()
     return _save(fig, path)
 
 
@@ -116,7 +128,8 @@ def clearance_plot(traj: RunTrajectories, padding_m: float, path: Path) -> Path 
     if not phases:
         return None
     starts = dict(zip([p.name for p in traj.planned], _phase_starts(traj), strict=True))
-    fig, ax = plt.subplots(figsize=(11, 2.4))
+    fig, ax = _pyplot().subplots(figsize=(11, 2.4))
+    fig.subplots_adjust(left=0.07, right=0.86, top=0.86, bottom=0.2)
     _shade_phases(ax, traj, _phase_starts(traj), label=True)
     for p in phases:
         ax.plot(starts[p.name] + p.clearance[:, 0], 1000 * p.clearance[:, 1], color="#1f4e9c", lw=1.2)
@@ -124,9 +137,8 @@ def clearance_plot(traj: RunTrajectories, padding_m: float, path: Path) -> Path 
     ax.axhline(0, color="k", lw=0.8)
     ax.set_ylabel("clearance [mm]", fontsize=8)
     ax.set_xlabel("time from the start of the motion [s]", fontsize=8)
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     ax.tick_params(labelsize=7)
-    fig.tight_layout()
     return _save(fig, path)
 
 
@@ -139,7 +151,8 @@ def timeline_plot(summary: RunSummary, path: Path) -> Path | None:
     if not spans:
         return None
     t0 = spans[0][1]
-    fig, ax = plt.subplots(figsize=(11, 1.3))
+    fig, ax = _pyplot().subplots(figsize=(11, 1.3))
+    fig.subplots_adjust(left=0.02, right=0.86, top=0.9, bottom=0.33)
     for state, start, seconds in spans:
         ax.barh(0, seconds, left=start - t0, color=STATE_COLOURS[state], edgecolor="white")
         if seconds > 0.04 * (spans[-1][1] + spans[-1][2] - t0):
@@ -152,5 +165,4 @@ def timeline_plot(summary: RunSummary, path: Path) -> Path | None:
     ax.set_yticks([])
     ax.set_xlabel("seconds from the run's start", fontsize=8)
     ax.tick_params(labelsize=7)
-    fig.tight_layout()
     return _save(fig, path)

@@ -71,8 +71,9 @@ def _time(rec: rr.RecordingStream, seconds: float) -> None:
     rec.set_time(TIMELINE, duration=max(0.0, float(seconds)))
 
 
-def _pose(T: np.ndarray, axis_length: float = 0.06) -> rr.Transform3D:
-    return rr.Transform3D(translation=T[:3, 3], mat3x3=T[:3, :3], axis_length=axis_length)
+def _log_pose(rec: rr.RecordingStream, path: str, T: np.ndarray, axis_length: float = 0.06, **kw) -> None:
+    """A frame at T (base frame), drawn as its three axes."""
+    rec.log(path, rr.Transform3D(translation=T[:3, 3], mat3x3=T[:3, :3]), rr.TransformAxes3D(axis_length), **kw)
 
 
 def _subsample(points: np.ndarray, n: int) -> np.ndarray:
@@ -104,7 +105,7 @@ def _log_camera(rec: rr.RecordingStream, ctx: RunContext, run_dir: Path) -> None
     if frame is None or frame.T_base_camera is None:
         return
     h, w = frame.rgb.shape[:2]
-    rec.log(ENTITIES["camera"], _pose(frame.T_base_camera, 0.1), static=True)
+    _log_pose(rec, ENTITIES["camera"], frame.T_base_camera, 0.1, static=True)
     rec.log(
         ENTITIES["camera"],
         rr.Pinhole(image_from_camera=frame.intrinsics.K, resolution=[w, h], image_plane_distance=0.15),
@@ -137,9 +138,9 @@ def _log_contact(rec: rr.RecordingStream, ctx: RunContext, left: dict[str, float
     if c is None:
         return
     _time(rec, left.get("PLANNING", 0.0))
-    rec.log(ENTITIES["pre_contact"], _pose(c.T_pre))
-    rec.log(ENTITIES["contact"], _pose(c.T_contact))
-    rec.log(ENTITIES["gripper_goal"], _pose(c.T_goal))
+    _log_pose(rec, ENTITIES["pre_contact"], c.T_pre)
+    _log_pose(rec, ENTITIES["contact"], c.T_contact)
+    _log_pose(rec, ENTITIES["gripper_goal"], c.T_goal)
     extra = [*c.via, *c.T_place]
     if extra:
         rec.log(ENTITIES["via"], rr.Points3D([T[:3, 3] for T in extra], colors=ORANGE, radii=0.006))

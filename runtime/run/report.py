@@ -143,31 +143,6 @@ def _tables(s: RunSummary) -> list[str]:
         if s.confirmation is not None:
             rows += [("confirmed by", s.confirmation.source), ("approved", s.confirmation.approved)]
         out.append(_kv_table("Plan", rows, "plan"))
-    if s.execution:
-        out.append(
-            _grid_table(
-                "Execution",
-                ["phase", "status", "ticks", "late", "jitter p99", "max tracking error", "gripper"],
-                [
-                    (
-                        e.phase,
-                        e.status if e.status == "completed" else f"{e.status}: {e.reason}",
-                        e.ticks,
-                        e.late_ticks,
-                        f"{1000 * e.jitter_p99_s:.2f} ms",
-                        f"{np.degrees(e.max_tracking_error_rad):.2f} deg",
-                        "; ".join(
-                            f"{g.kind} {_mm(g.width_m)}"
-                            + ("" if g.grasped is None else (" grasped" if g.grasped else " EMPTY"))
-                            for g in e.gripper
-                        )
-                        or "-",
-                    )
-                    for e in s.execution
-                ],
-                "execution",
-            )
-        )
     if s.verification is not None:
         v = s.verification
         rows = [("verified", v.ok), ("reason", v.reason)]
@@ -189,6 +164,33 @@ def _tables(s: RunSummary) -> list[str]:
     if s.stage_seconds:
         out.append(_kv_table("Seconds per stage", [(k, f"{v:.2f} s") for k, v in s.stage_seconds.items()], "stages"))
     return out
+
+
+def _execution_table(s: RunSummary) -> str:
+    if not s.execution:
+        return ""
+    return _grid_table(
+        "Execution",
+        ["phase", "status", "ticks", "late", "jitter p99", "max tracking error", "gripper"],
+        [
+            (
+                e.phase,
+                e.status if e.status == "completed" else f"{e.status}: {e.reason}",
+                e.ticks,
+                e.late_ticks,
+                f"{1000 * e.jitter_p99_s:.2f} ms",
+                f"{np.degrees(e.max_tracking_error_rad):.2f} deg",
+                "; ".join(
+                    f"{g.kind} {_mm(g.width_m)}"
+                    + ("" if g.grasped is None else (" grasped" if g.grasped else " EMPTY"))
+                    for g in e.gripper
+                )
+                or "-",
+            )
+            for e in s.execution
+        ],
+        "execution",
+    )
 
 
 def render_report(summary: RunSummary, plots: Sequence[tuple[str, str]] = ()) -> str:
@@ -226,6 +228,7 @@ def render_report(summary: RunSummary, plots: Sequence[tuple[str, str]] = ()) ->
 <div class="pictures" id="pictures">{figures}</div>
 {plot_html}
 <div class="tables">{"".join(_tables(s))}</div>
+{_execution_table(s)}
 {transitions}
 <details id="raw"><summary>Raw summary.json (<a href="summary.json">file</a>)</summary><pre>{raw}</pre></details>
 </body></html>
