@@ -122,7 +122,7 @@ def test_report_shows_the_verdict_then_the_plots_in_chromium(run_dir, tmp_path):
     assert {"contact", "plan", "execution", "verification"} <= set(tables) or "verification" not in tables
     screen = np.asarray(Image.open(shot).convert("RGB")).astype(int)
     for name, box in zip(names, boxes, strict=True):
-        x, y, w, h = (int(round(box[k])) for k in ("x", "y", "width", "height"))
+        x, y, w, h = (round(box[k]) for k in ("x", "y", "width", "height"))
         assert y + h <= screen.shape[0], f"{name} lies below the first 2000 px"
         crop = screen[y : y + h, x : x + w]
         drawn = np.asarray(Image.open(run_dir / name).convert("RGB").resize((w, h))).astype(int)
@@ -156,7 +156,7 @@ def test_view_picks_the_web_viewer_without_a_display_and_serves_it_on_the_loopba
 
 
 def test_view_refuses_a_folder_without_a_recording(tmp_path):
-    with pytest.raises(ViewError, match="no run.rrd"):
+    with pytest.raises(ViewError, match=r"no run\.rrd"):
         plan_view(tmp_path, {})
     with pytest.raises(ViewError, match="not a run folder"):
         plan_view(tmp_path / "missing", {})
