@@ -9,6 +9,7 @@ runtime.
 from __future__ import annotations
 
 import io
+import logging
 import os
 import socket
 import tarfile
@@ -18,6 +19,7 @@ from pathlib import Path
 from runtime.campaign.cases import Case
 from runtime.campaign.results import RESULT_FILE, CaseResult
 
+log = logging.getLogger(__name__)
 _stages = None  # this worker process's PipelineStages (backends loaded once)
 
 
@@ -81,8 +83,17 @@ def run_case(case: Case, config: Path, campaign: str, run_dir: Path, rerun_recor
     else:
         if _stages is None:
             _stages = PipelineStages(listeners=[SimTruth()])
-        with open_devices(profile) as devices, Runtime(profile, devices, _stages, confirm="yes") as rt:
-            run = rt.run(case.instruction, run_dir)
+        run = None
+        try:
+            with open_devices(profile) as devices, Runtime(profile, devices, _stages, confirm="yes") as rt:
+                run = rt.run(case.instruction, run_dir)
+        except Exception:
+            if run is None:
+                raise
+            # the run ended and its record is written; closing its devices failed (a stage that overran its budget
+            # still holding the camera's GL context): the result stands, and the next case gets fresh backends
+            log.exception("case %s: closing the devices after the run failed", case.id)
+            _stages = None
         result = CaseResult.of(case, run.summary, worker_name())
     (run_dir / RESULT_FILE).write_text(result.model_dump_json(indent=2))
     return result
