@@ -116,7 +116,8 @@ class CampaignTable(BaseModel):
 
     @classmethod
     def of(cls, results: Iterable[CaseResult]) -> CampaignTable:
-        results = sorted(results, key=lambda r: r.case.id)
+        """Tasks in the order their runs come (the campaign's order), actions alphabetically."""
+        results = list(results)
         tasks: dict[str, list[CaseResult]] = {}
         actions: dict[str, list[CaseResult]] = {}
         for r in results:
