@@ -12,6 +12,7 @@ import json
 import time
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from pathlib import Path
+from typing import Literal
 
 from pydantic import BaseModel, ConfigDict
 from rich.console import Console
@@ -39,6 +40,7 @@ class CampaignSpec(BaseModel):
     seeds: tuple[int, ...]
     trials: int
     rerun_recording: bool = True
+    contact: Literal["pipeline", "oracle"] = "pipeline"  # oracle: the simulator's grasp (runtime.sim_truth.oracle)
 
     def cases(self) -> list[Case]:
         try:
@@ -103,9 +105,8 @@ def run_campaign(spec: CampaignSpec, out: Path, pool: Pool, console: Console) ->
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, TextColumn("eta"), TimeRemainingColumn(), console=console) as progress:
         bar = progress.add_task("runs", total=len(cases), completed=len(done))
-        futures: dict[Future, Case] = {
-            pool.submit(c.model_dump_json(), spec.config, spec.name, spec.rerun_recording): c for c in pending
-        }
+        settings = (spec.config, spec.name, spec.rerun_recording, spec.contact)
+        futures: dict[Future, Case] = {pool.submit(c.model_dump_json(), *settings): c for c in pending}
         try:
             remaining = set(futures)
             while remaining:

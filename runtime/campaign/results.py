@@ -28,14 +28,15 @@ class CaseResult(BaseModel):
     status: Status  # REFUSED: the run did not start (a sentence outside the grammar, a scene that cannot be placed)
     reason: str
     failed_in: str | None  # the state the run failed or stopped in (lower case), None when verified
-    wall_s: float | None  # the run's own wall time
+    wall_s: float | None  # the run's own wall time (summary.json: from its start until its record is written)
+    run_s: float | None = None  # the whole run as the worker saw it: devices, the run, its plots and recording
     verified: bool  # the run's verdict: DONE
     truly_done: bool | None  # the simulator's: None when it cannot tell (runtime.campaign.truth)
     jitter_p99_s: float | None  # worst streaming jitter p99 over the run's phases
     worker: str = ""  # where it ran (host:pid)
 
     @classmethod
-    def of(cls, case: Case, summary: RunSummary, worker: str = "") -> CaseResult:
+    def of(cls, case: Case, summary: RunSummary, worker: str = "", run_s: float | None = None) -> CaseResult:
         failed_in = next((t.previous.lower() for t in summary.transitions if t.state in ("FAILED", "ESTOPPED")), None)
         jitter = [p.jitter_p99_s for p in summary.execution if p.ticks > 0]
         return cls(
@@ -48,6 +49,7 @@ class CaseResult(BaseModel):
             truly_done=judge(case, summary),
             jitter_p99_s=max(jitter) if jitter else None,
             worker=worker,
+            run_s=None if run_s is None else round(run_s, 3),
         )
 
     @classmethod

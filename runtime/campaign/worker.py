@@ -14,13 +14,14 @@ import os
 import socket
 import tarfile
 import tempfile
+import time
 from pathlib import Path
 
 from runtime.campaign.cases import Case
 from runtime.campaign.results import RESULT_FILE, CaseResult
 
 log = logging.getLogger(__name__)
-_stages = None  # this worker process's PipelineStages (backends loaded once)
+_stages = None  # this worker process's (contact, stages): backends loaded once
 
 
 def free_port() -> int:
@@ -66,14 +67,27 @@ def _refusal(case: Case, profile) -> str | None:
     return "; ".join(problems) or None
 
 
-def run_case(case: Case, config: Path, campaign: str, run_dir: Path, rerun_recording: bool = True) -> CaseResult:
+def build_stages(contact: str):
+    """The run's stages: the pipeline's own, or with the simulator's ground-truth grasp standing in for contact
+    planning (to measure the rest while contact is under work)."""
+    from runtime.run.stages import PipelineStages
+    from runtime.sim_truth.listener import SimTruth
+
+    if contact == "oracle":
+        from runtime.sim_truth.oracle import GroundTruthGraspStages
+
+        return GroundTruthGraspStages(listeners=[SimTruth()])
+    return PipelineStages(listeners=[SimTruth()])
+
+
+def run_case(
+    case: Case, config: Path, campaign: str, run_dir: Path, rerun_recording: bool = True, contact: str = "pipeline"
+) -> CaseResult:
     """Run the case into run_dir (new) and write its result.json there."""
     global _stages
     from runtime.config import load_profile
     from runtime.devices import open_devices
     from runtime.run.runner import Runtime
-    from runtime.run.stages import PipelineStages
-    from runtime.sim_truth.listener import SimTruth
 
     profile = load_profile(config, profile_overrides(case, campaign, rerun_recording))
     refusal = _refusal(case, profile)
@@ -81,11 +95,11 @@ def run_case(case: Case, config: Path, campaign: str, run_dir: Path, rerun_recor
         run_dir.mkdir(parents=True, exist_ok=True)
         result = CaseResult.refused(case, refusal, worker_name())
     else:
-        if _stages is None:
-            _stages = PipelineStages(listeners=[SimTruth()])
-        run = None
+        if _stages is None or _stages[0] != contact:
+            _stages = (contact, build_stages(contact))
+        run, t0 = None, time.perf_counter()
         try:
-            with open_devices(profile) as devices, Runtime(profile, devices, _stages, confirm="yes") as rt:
+            with open_devices(profile) as devices, Runtime(profile, devices, _stages[1], confirm="yes") as rt:
                 run = rt.run(case.instruction, run_dir)
         except Exception:
             if run is None:
@@ -94,18 +108,20 @@ def run_case(case: Case, config: Path, campaign: str, run_dir: Path, rerun_recor
             # still holding the camera's GL context): the result stands, and the next case gets fresh backends
             log.exception("case %s: closing the devices after the run failed", case.id)
             _stages = None
-        result = CaseResult.of(case, run.summary, worker_name())
+        result = CaseResult.of(case, run.summary, worker_name(), time.perf_counter() - t0)
     (run_dir / RESULT_FILE).write_text(result.model_dump_json(indent=2))
     return result
 
 
-def execute_case(case_json: str, config: str, campaign: str, rerun_recording: bool = True) -> tuple[str, bytes]:
+def execute_case(
+    case_json: str, config: str, campaign: str, rerun_recording: bool = True, contact: str = "pipeline"
+) -> tuple[str, bytes]:
     """The unit of work of every backend: run the case in a temporary folder and return (case id, the folder as
     tar bytes). Plain arguments and results, so a process pool and Ray carry them alike."""
     case = Case.model_validate_json(case_json)
     with tempfile.TemporaryDirectory(prefix="goalvla-eval-") as tmp:
         run_dir = Path(tmp) / case.id
-        run_case(case, Path(config), campaign, run_dir, rerun_recording)
+        run_case(case, Path(config), campaign, run_dir, rerun_recording, contact)
         buffer = io.BytesIO()
         with tarfile.open(fileobj=buffer, mode="w") as tar:
             tar.add(run_dir, arcname=case.id)

@@ -1,15 +1,15 @@
 """`goalvla view RUN_DIR`: open a run's run.rrd in Rerun's viewer, the native one on a desktop, the web viewer
 (served on the loopback, for a browser on this machine or through an SSH tunnel) when there is no display.
 
-The viewer is the `rerun` program that rerun-sdk installs, run as `python -m rerun`. Its usage analytics are
-turned off first (`rerun analytics disable`): the runtime's tools talk to the loopback only.
+The viewer is the `rerun` program that rerun-sdk installs (the rerun_cli package's binary, started directly so
+that stopping it stops the server). Its usage analytics are turned off first (`rerun analytics disable`): the
+runtime's tools talk to the loopback only.
 """
 
 from __future__ import annotations
 
 import os
 import subprocess
-import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,6 +28,16 @@ class ViewPlan:
     viewer: Viewer
     command: list[str]
     url: str | None  # the web viewer's address
+
+
+def rerun_program() -> str:
+    """The viewer binary rerun-sdk ships."""
+    import rerun_cli
+
+    program = Path(rerun_cli.__file__).parent / "rerun"
+    if not program.is_file():
+        raise ViewError(f"the Rerun viewer is missing ({program}): reinstall rerun-sdk (setup.sh)")
+    return str(program)
 
 
 def has_display(env: Mapping[str, str]) -> bool:
@@ -56,7 +66,7 @@ def plan_view(
     """Which viewer, and the command that starts it: native with a display, web (on `bind`) without one."""
     rrd = recording_of(run_dir)
     chosen: Viewer = viewer or ("native" if has_display(env) else "web")
-    rerun = [sys.executable, "-m", "rerun"]
+    rerun = [rerun_program()]
     if chosen == "native":
         return ViewPlan("native", [*rerun, str(rrd)], None)
     command = [*rerun, str(rrd), "--serve-web", "--bind", bind, "--port", str(grpc_port)]
@@ -67,9 +77,7 @@ def plan_view(
 
 
 def disable_analytics(env: Mapping[str, str]) -> None:
-    subprocess.run(
-        [sys.executable, "-m", "rerun", "analytics", "disable"], env=dict(env), capture_output=True, check=False
-    )
+    subprocess.run([rerun_program(), "analytics", "disable"], env=dict(env), capture_output=True, check=False)
 
 
 def view(plan: ViewPlan, env: Mapping[str, str], say) -> int:
