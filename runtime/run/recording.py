@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import rerun as rr
+import rerun.blueprint as rrb
 from scipy.spatial.transform import Rotation
 
 from drivers.description.spec import Box, Capsule, Cylinder
@@ -269,6 +270,30 @@ def _log_gripper_events(rec: rr.RecordingStream, summary: RunSummary, left: dict
             rec.log(ENTITIES["events"], rr.TextLog(f"{phase.phase}: gripper {g.kind}{width}{grasped}"))
 
 
+def blueprint() -> rrb.Blueprint:
+    """The viewer's first layout: the 3D scene beside the pictures, the joints and the timeline's text."""
+    images = [rrb.Spatial2DView(origin=ENTITIES[n], name=n) for n in ("capture", "goal", "overlay", "masks")]
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(
+                origin="world",
+                name="scene (base frame)",
+                eye_controls=rrb.EyeControls3D(
+                    position=(1.25, -0.95, 0.85), look_target=(0.4, 0.0, 0.1), eye_up=(0, 0, 1)
+                ),
+            ),
+            rrb.Vertical(
+                rrb.Grid(*images),
+                rrb.TimeSeriesView(origin="joints", name="joints [rad]: planned and executed"),
+                rrb.TextLogView(origin="timeline", name="states, gate, gripper"),
+                row_shares=[2, 2, 1],
+            ),
+            column_shares=[3, 2],
+        ),
+        collapse_panels=True,
+    )
+
+
 def write_recording(ctx: RunContext, summary: RunSummary, traj: RunTrajectories | None, run_dir: Path) -> Path:
     """Write run_dir/run.rrd from the ended run (its context, summary and trajectories); returns its path."""
     path = run_dir / FILE
@@ -276,6 +301,7 @@ def write_recording(ctx: RunContext, summary: RunSummary, traj: RunTrajectories 
     rec.save(path)
     try:
         rec.send_recording_name(f"{summary.run_id}: {summary.instruction}")
+        rec.send_blueprint(blueprint())
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         t0, left = _stage_times(summary)
         for tr in summary.transitions:
