@@ -14,7 +14,7 @@ import numpy as np
 from runtime.run.summary import RunSummary
 from runtime.run.trajectories import RunTrajectories
 
-DPI = 72
+DPI = 90
 PHASE_COLOURS = ("#dbe9f6", "#fde2c8", "#dcefd6", "#f3d9ec", "#ece7d2", "#d9eeee")
 STATE_COLOURS = {
     "CAPTURING": "#8da0cb",
