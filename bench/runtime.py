@@ -140,10 +140,11 @@ def _median(values) -> float | None:
     return statistics.median(values) if values else None
 
 
-def runs(count: int, out_dir: Path, contact: str, compare: bool) -> dict:
+def runs(count: int, out_dir: Path, contact: str, compare: bool, plain_count: int = 12) -> dict:
     """`count` runs over the task scenes (seeds from 100, spread over the tasks) sequentially on one worker; with
-    `compare`, the same cases again on two workers (the campaign's speed-up) and sequentially without run.rrd (what
-    the recording costs, and that it leaves streaming jitter alone)."""
+    `compare`, the same cases again on two workers (the campaign's speed-up), and the first `plain_count` of them
+    sequentially without run.rrd (what the recording costs, paired by case, and that it leaves streaming jitter
+    alone)."""
     seeds = list(range(100, 100 + max(1, -(-count // len(TASKS)))))
     sequential, wall_seq = campaign("sequential", out_dir, seeds, 1, True, contact)
     table = sequential.table
@@ -164,7 +165,8 @@ def runs(count: int, out_dir: Path, contact: str, compare: bool) -> dict:
     if not compare:
         return result
     parallel, wall_par = campaign("two_workers", out_dir, seeds, 2, True, contact)
-    plain, _ = campaign("sequential_no_rrd", out_dir, seeds, 1, False, contact)
+    plain_seeds = seeds[: max(1, -(-plain_count // len(TASKS)))]
+    plain, _ = campaign("sequential_no_rrd", out_dir, plain_seeds, 1, False, contact)
     with_rrd = {r.case.id: r for r in sequential.results}
     paired = [
         with_rrd[r.case.id].run_s / r.run_s
@@ -178,6 +180,7 @@ def runs(count: int, out_dir: Path, contact: str, compare: bool) -> dict:
         "recording_run_s_ratio_median": round(statistics.median(paired), 4) if paired else None,
         "run_s_median_with_rrd": _median(r.run_s for r in sequential.results),
         "run_s_median_without_rrd": _median(r.run_s for r in plain.results),
+        "recording_pairs": len(paired),
         "jitter_p99_ms_median_with_rrd": _ms(_median(r.jitter_p99_s for r in sequential.results)),
         "jitter_p99_ms_median_without_rrd": _ms(_median(r.jitter_p99_s for r in plain.results)),
         "jitter_p99_ms_max_with_rrd": _ms(max((r.jitter_p99_s or 0 for r in sequential.results), default=None)),
@@ -196,6 +199,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="50 e-stop trials and 6 sequential runs (smoke check)")
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--runs", type=int, default=None, help="runs per campaign (default 24, quick 6)")
+    parser.add_argument("--plain-runs", type=int, default=12, help="runs repeated without run.rrd (default 12)")
     parser.add_argument("--keep", type=Path, default=None, help="keep the campaigns (run folders, tables) here")
     parser.add_argument(
         "--contact",
@@ -209,7 +213,7 @@ def main() -> None:
     estop = estop_latency(50 if args.quick else 200)
     count = args.runs or (6 if args.quick else 24)
     with tempfile.TemporaryDirectory(prefix="goalvla-bench-") as tmp:
-        run_stats = runs(count, args.keep or Path(tmp), args.contact, compare=not args.quick)
+        run_stats = runs(count, args.keep or Path(tmp), args.contact, not args.quick, args.plain_runs)
     measured = {
         "estop_latency_p99_ms": estop["p99_ms"],
         "run_wall_s_median": run_stats["wall_s_median"],
