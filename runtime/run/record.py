@@ -21,7 +21,6 @@ from motion.limits import MotionLimits
 from runtime.messaging.bus import Bus
 from runtime.run import plots
 from runtime.run.clearance import clearance_along
-from runtime.run.recording import write_recording
 from runtime.run.report import render_report
 from runtime.run.summary import RunSummary, TransitionRecord
 from runtime.run.trajectories import RunTrajectories
@@ -117,6 +116,8 @@ class RunRecord:
             drawn = self._plots(ctx, trajectories)
             if ctx.profile.runtime.rerun_recording:
                 try:
+                    from runtime.run.recording import write_recording  # rerun loads in seconds: only when used
+
                     write_recording(ctx, summary, trajectories, self.dir)
                 except Exception:
                     log.exception("run.rrd could not be written")
