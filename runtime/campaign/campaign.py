@@ -87,7 +87,13 @@ def write_results(outcome: CampaignOutcome, out: Path) -> None:
     title = f"campaign {outcome.spec.name}"
     (out / RESULTS_FILE).write_text(outcome.model_dump_json(indent=2))
     (out / "results.md").write_text(markdown(outcome.table, title))
-    (out / "results.html").write_text(html_page(outcome.table, title, outcome.results))
+    spec = outcome.spec
+    seeds = f"seeds {spec.seeds[0]}..{spec.seeds[-1]}" if spec.seeds else "no seeds"
+    subtitle = (
+        f"{len(outcome.results)} runs: tasks {', '.join(spec.tasks)}; {seeds}; {spec.trials} trial(s); profile "
+        f"{Path(spec.config).name}; contact {spec.contact}; on {outcome.pool}"
+    )
+    (out / "results.html").write_text(html_page(outcome.table, title, outcome.results, subtitle))
 
 
 def run_campaign(spec: CampaignSpec, out: Path, pool: Pool, console: Console) -> CampaignOutcome:

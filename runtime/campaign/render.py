@@ -60,11 +60,14 @@ def markdown(table: CampaignTable, title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def html_page(table: CampaignTable, title: str, results: list[CaseResult]) -> str:
+def html_page(table: CampaignTable, title: str, results: list[CaseResult], subtitle: str = "") -> str:
     def grid(label: str, rows: list[Row]) -> str:
         head = "".join(f"<th>{html.escape(c)}</th>" for c in (label, *COLUMNS))
         body = "".join(
-            "<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in (row.group, *_cells(row))) + "</tr>" for row in rows
+            ('<tr class="total">' if row is table.total else "<tr>")
+            + "".join(f"<td>{html.escape(c)}</td>" for c in (row.group, *_cells(row)))
+            + "</tr>"
+            for row in rows
         )
         return f"<h2>By {html.escape(label)}</h2><table><tr>{head}</tr>{body}</table>"
 
@@ -78,7 +81,8 @@ def html_page(table: CampaignTable, title: str, results: list[CaseResult]) -> st
     return f"""<!doctype html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>body{{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1180px;padding:0 1em}}
 table{{border-collapse:collapse;margin:.5em 0 1.5em}} td,th{{border:1px solid #ccc;padding:3px 8px;font-size:13px;
-text-align:left}} th{{background:#f4f4f4}}</style></head><body><h1>{html.escape(title)}</h1>
+text-align:left}} th{{background:#f4f4f4}} tr.total td{{font-weight:bold}} .sub{{color:#555}}</style></head>
+<body><h1>{html.escape(title)}</h1><p class="sub">{html.escape(subtitle)}</p>
 {"".join(grid(label, rows) for label, rows in _sections(table))}<p>{html.escape(LEGEND)}</p>
 <h2>Runs</h2><table><tr><th>run</th><th>instruction</th><th>status</th><th>done (sim)</th><th>reason</th></tr>
 {runs}</table></body></html>
