@@ -71,7 +71,8 @@ def test_truth_judges_the_target_where_it_ended_not_the_verdict():
     assert judge(c, summary(truth=moved("red_block", 0.01))) is True
     assert judge(c, summary(truth=moved("red_block", 0.05))) is False  # verified, but 5 cm off: a false success
     assert judge(c, summary(truth=moved("blue_block", 0.0))) is False  # another object moved there
-    assert judge(c, summary("FAILED", "grounding")) is None  # nothing executed: the sim was never asked
+    assert judge(c, summary("FAILED", "grounding")) is False  # the arm never moved: not done
+    assert judge(c, summary("FAILED", "executing")) is None  # stopped while moving, before the truth was taken
     lid = case("close_lid")
     shut = SimTruthRecord(object_displacement_m={}, hinge_deg={"box_hinge": 4.0})
     open_ = SimTruthRecord(object_displacement_m={}, hinge_deg={"box_hinge": 40.0})
@@ -92,7 +93,7 @@ def test_the_table_counts_false_successes_false_failures_and_where_failures_star
     assert (tabletop.group, tabletop.runs, tabletop.verified, tabletop.truly_done) == ("tabletop", 5, 2, 2)
     assert (tabletop.false_successes, tabletop.false_failures, tabletop.refused_before_start) == (1, 1, 1)
     assert tabletop.failed_in == {"before start": 1, "grounding": 1, "verifying": 1}
-    assert tabletop.median_wall_s == 9.0 and tabletop.truth_unknown == 1  # the refused run started nothing
+    assert tabletop.median_wall_s == 9.0 and tabletop.truth_unknown == 0  # grounding's failure moved nothing
     assert close_lid.failed_in == {"planning": 1} and table.total.runs == 6
     assert [r.group for r in table.by_action] == ["close", "place on"]
 
