@@ -30,6 +30,7 @@ class CaseResult(BaseModel):
     failed_in: str | None  # the state the run failed or stopped in (lower case), None when verified
     wall_s: float | None  # the run's own wall time (summary.json: from its start until its record is written)
     run_s: float | None = None  # the whole run as the worker saw it: devices, the run, its plots and recording
+    recording_s: float | None = None  # of which writing run.rrd (summary.json's record_seconds)
     verified: bool  # the run's verdict: DONE
     truly_done: bool | None  # the simulator's: None when it cannot tell (runtime.campaign.truth)
     jitter_p99_s: float | None  # worst streaming jitter p99 over the run's phases
@@ -50,6 +51,7 @@ class CaseResult(BaseModel):
             jitter_p99_s=max(jitter) if jitter else None,
             worker=worker,
             run_s=None if run_s is None else round(run_s, 3),
+            recording_s=summary.record_seconds.get("recording"),
         )
 
     @classmethod

@@ -102,27 +102,45 @@ class RunRecord:
 
     def finish(self, status: str, reason: str, ctx: RunContext | None = None) -> Path:
         """Write summary.json, then (from the ended run's context, when given) trajectories.npz, the plots,
-        run.rrd (runtime.rerun_recording) and report.html. Nothing is done while the arm moves: the run has ended.
-        A plot or the recording that fails is logged and left out; the summary is already on disk."""
+        run.rrd (runtime.rerun_recording) and report.html, and summary.json again with the seconds each took.
+        Nothing is done while the arm moves: the run has ended. A plot or the recording that fails is logged and
+        left out; the summary is already on disk."""
         summary = self.summary
         summary.status, summary.reason = status, reason
         summary.wall_s = round(time.monotonic() - self._t0, 3)
         summary.images = [f"{n}.png" for n in self.images]
         path = self.dir / "summary.json"
-        path.write_text(summary.model_dump_json(indent=2))
+        self._write_summary(path)
         drawn: list[tuple[str, str]] = []
+        seconds: dict[str, float] = {}
         if ctx is not None:
+            t = time.perf_counter()
             trajectories = self._trajectories(ctx)
+            seconds["trajectories"] = time.perf_counter() - t
+            t = time.perf_counter()
             drawn = self._plots(ctx, trajectories)
+            seconds["plots"] = time.perf_counter() - t
             if ctx.profile.runtime.rerun_recording:
+                t = time.perf_counter()
                 try:
                     from runtime.run.recording import write_recording  # rerun loads in seconds: only when used
 
                     write_recording(ctx, summary, trajectories, self.dir)
                 except Exception:
                     log.exception("run.rrd could not be written")
+                seconds["recording"] = time.perf_counter() - t
+        t = time.perf_counter()
         (self.dir / "report.html").write_text(render_report(summary, drawn))
+        seconds["report"] = time.perf_counter() - t
+        summary.record_seconds = {k: round(v, 3) for k, v in seconds.items()}
+        self._write_summary(path)
         return path
+
+    def _write_summary(self, path: Path) -> None:
+        """Whole or not at all: a reader never sees half a summary."""
+        partial = path.with_name(f".{path.name}.partial")
+        partial.write_text(self.summary.model_dump_json(indent=2))
+        partial.replace(path)
 
     def _trajectories(self, ctx: RunContext) -> RunTrajectories | None:
         if ctx.manipulation is None:
