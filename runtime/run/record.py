@@ -6,10 +6,8 @@ understood from its folder alone, and every image through here, so the console s
 
 from __future__ import annotations
 
-import importlib
 import logging
 import os
-import threading
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -23,6 +21,10 @@ from motion.limits import MotionLimits
 from runtime.messaging.bus import Bus
 from runtime.run import plots
 from runtime.run.clearance import clearance_along
+
+# Rerun loads with the runtime, before any run: its import takes about a second and holds other threads for up to
+# ~0.1 s at a time, which must not happen while a run streams or its deadman heartbeat is watched
+from runtime.run.recording import write_recording
 from runtime.run.report import render_report
 from runtime.run.summary import RunSummary, TransitionRecord
 from runtime.run.trajectories import RunTrajectories
@@ -69,23 +71,8 @@ def run_folder_problem(path: Path) -> str | None:
     return None if os.access(ancestor, os.W_OK) else f"{ancestor} is not writable, so {path} cannot be made"
 
 
-_preloading: threading.Thread | None = None
-
-
-def preload_recording() -> None:
-    """Import the recording module (Rerun: about a second) on a background thread while the run captures and
-    reasons, once per process, so that the run's end does not wait for it. Nothing runs on the streaming thread."""
-    global _preloading
-    if _preloading is None:
-        _preloading = threading.Thread(
-            target=importlib.import_module, args=("runtime.run.recording",), name="recording-preload", daemon=True
-        )
-        _preloading.start()
-
-
 class RunRecord:
-    def __init__(self, run_dir: Path, run_id: str, bus: Bus | None = None, recording: bool = False) -> None:
-        """recording: this run will write run.rrd (runtime.rerun_recording): its module starts loading now."""
+    def __init__(self, run_dir: Path, run_id: str, bus: Bus | None = None) -> None:
         problem = run_folder_problem(run_dir)
         if problem is not None:
             raise FileExistsError(f"run folder: {problem}")
@@ -96,8 +83,6 @@ class RunRecord:
         self.summary = RunSummary(run_id=run_id)
         self.images: list[str] = []
         self._t0 = time.monotonic()
-        if recording:
-            preload_recording()
 
     def on_transition(self, t: Transition) -> None:
         if t.previous.value not in ("IDLE", "DONE", "FAILED", "ESTOPPED"):
@@ -142,8 +127,6 @@ class RunRecord:
             if ctx.profile.runtime.rerun_recording:
                 t = time.perf_counter()
                 try:
-                    from runtime.run.recording import write_recording  # loaded by preload_recording, or now
-
                     write_recording(ctx, summary, trajectories, self.dir)
                 except Exception:
                     log.exception("run.rrd could not be written")

@@ -146,7 +146,7 @@ class Runtime:
     def run(self, instruction: str, run_dir: Path | None = None) -> RunResult:
         run_id = datetime.now(UTC).strftime("%Y%m%d-%H%M%S-") + uuid.uuid4().hex[:6]
         run_dir = run_dir or self.profile.runtime.runs_dir / run_id
-        record = RunRecord(run_dir, run_id, self.bus, recording=self.profile.runtime.rerun_recording)
+        record = RunRecord(run_dir, run_id, self.bus)
         summary = record.summary
         summary.instruction, summary.profile = instruction, self.profile.name
         summary.robot_id = self.profile.runtime.robot_id
