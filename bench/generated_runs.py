@@ -86,8 +86,8 @@ def run_case(seed: int, runs_dir: Path, profile: Path) -> dict:
         out |= {"outcome": "no record", "reason": (proc.stderr or proc.stdout)[-600:]}
         return out
     summary = json.loads(summary_path.read_text())
-    reached = [t["to"].lower() for t in summary.get("transitions", [])]
-    failed_in = next((t["from"].lower() for t in summary["transitions"] if t["to"] == "FAILED"), None)
+    reached = [t["state"].lower() for t in summary.get("transitions", [])]
+    failed_in = next((t["previous"].lower() for t in summary["transitions"] if t["state"] == "FAILED"), None)
     out |= {"status": summary["status"], "reason": summary.get("reason", ""), "failed_in": failed_in}
     stage1 = "grounding" in reached
     if stage1:
@@ -100,7 +100,7 @@ def run_case(seed: int, runs_dir: Path, profile: Path) -> dict:
     out["stage1_ok"] = stage1
     truth = summary.get("sim_truth") or {}
     if task.action == "close":
-        angle = truth.get(f"{task.target}_hinge [deg]")
+        angle = (truth.get("hinge_deg") or {}).get(f"{task.target}_hinge")
         out["done_truth"] = angle is not None and angle <= LID_SHUT_DEG
     else:
         err = truth.get("target_goal_error_m")
