@@ -5,8 +5,10 @@ The safety gate checks a trajectory against one collision world, and the world c
 the sequence is cut where it changes and each phase is approved against its own world. The arm rests at every
 cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
   grasp:  approach (free path to the pre-grasp pose; the object is an obstacle) -> grasp (straight in, close,
-          straight up) -> carry (object attached to the TCP: free path above the place pose, straight down, open)
-          -> retreat (straight up) -> home (the placed object is an obstacle)
+          straight up) -> carry (object attached to the TCP: free path above the place pose, straight down to the
+          release, open as wide as the approach did) -> retreat (straight up) -> home (the placed object is an
+          obstacle). The release is the contact's: just above the goal, or higher where the fingers would touch the
+          scene lower (a container's walls), the object dropping the rest.
   push:   approach (free path, close the fingers) -> push (straight in, push along the motion, back up) -> home
   hinge:  as push, the push following the via poses along the hinged part's arc (a Cartesian line between each
           two), ending just off the turned part, whence straight up is away from it
@@ -87,13 +89,14 @@ def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     q_above = chain.checked(carry_planner, q_above, T_above, "pose above the place")
     to_above = chain.free(carry_planner, lift[-1], q_above, "carry path")
     place = chain.line(carry_planner, q_above, T_place, "descent to the place pose")
-    release = GripperAction("open", OPEN_S, g.max_width_m)
+    # let go only as wide as the approach opened: in a container, beside a neighbour, wider fingers may touch
+    release = GripperAction("open", OPEN_S, contact.open_width_m)
     carry = chain.approved([to_above, place, release], carry_world, lift[-1], "carry")
 
-    released = chain.world(g.max_width_m)
+    released = chain.world(contact.open_width_m)
     up = chain.line(chain.planner(released), place[-1], T_above, "retreat")
     retreat = chain.approved([up], released, place[-1], "retreat")
-    home = _home(chain, contact, g.max_width_m, up[-1])
+    home = _home(chain, contact, contact.open_width_m, up[-1])
     phases = (approach, grasp, carry, retreat, home)
     waypoints = {"pre-grasp": contact.T_pre, "grasp": contact.T_contact, "place": T_place}
     return ManipulationPlan(phases, ("approach", "grasp", "carry", "retreat", "home"), contact, waypoints)

@@ -44,6 +44,13 @@ class ContactConfig(StrictModel):
         max_length=10,
         description="grasp: heights above the goal pose the gripper passes setting the object down",
     )
+    max_drop_m: float = Field(
+        default=0.08,
+        ge=0,
+        le=0.2,
+        description="grasp: how much higher than place_lifts_m[0] the object may be let go where the gripper would "
+        "touch the scene lower (a container's walls, a neighbour): the object drops the rest",
+    )
     placed_clearance_m: float = Field(default=0.004, ge=0, description="moved object vs other scene points")
     ik_candidates: int = Field(
         default=12, ge=1, le=200, description="best geometric candidates checked for reachability"

@@ -38,7 +38,9 @@ from pipeline.reasoning.tabletop import (
     footprint,
     object_points,
     principal_axis,
+    rim_centre,
     support_height,
+    top_centre,
     wide_end,
 )
 from pipeline.reasoning.types import EditRequest, EditResult
@@ -168,8 +170,10 @@ class OfflineEditor(ImageEditor):
                         f"the {instr.target} ({fx.radius_m * 1000:.0f} mm across its middle) does not fit {where} "
                         f"({fy.radius_m * 1000:.0f} mm)"
                     )
-                lift = support_height(fy, plane) - bottom + RELEASE_ABOVE_M
-                shift = fy.centre - fx.centre + lift * plane.n
+                # the middles of the tops (a container's by its rim): the seen points' middle leans to the camera
+                there = rim_centre(fy, plane) if instr.relation == "in" else top_centre(fy, plane)
+                lift = support_height(fy, plane, there) - bottom + RELEASE_ABOVE_M
+                shift = there - top_centre(fx, plane) + lift * plane.n
                 problem = table.problem(fx, shift, hidden_ok=instr.relation == "in")  # walls may hide it
                 if problem is not None:
                     raise GeometryError(f"cannot put the {instr.target} {where}: {problem}")
@@ -188,7 +192,7 @@ class OfflineEditor(ImageEditor):
                 raise GeometryError(why)
             return eye, zero, shift
         if instr.action == "rotate":
-            return axis_rotation(plane.n, math.radians(instr.angle_deg)), fx.centre, zero
+            return axis_rotation(plane.n, math.radians(instr.angle_deg)), top_centre(fx, plane), zero
         if instr.action == "push":
             direction = {"left": -right, "right": right, "away": away, "toward": -away}[instr.direction]
             problem = table.problem(fx, direction * instr.distance_m)
