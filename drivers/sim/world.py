@@ -235,6 +235,21 @@ class SimWorld:
             T[:3, 3] = body.xpos
             return T
 
+    def displace(self, name: str, dx_m: float, dy_m: float, dyaw_rad: float = 0.0) -> None:
+        """Move a free object on the table as a person would nudge it: shifted by (dx, dy) and turned about the
+        vertical through its centre, at rest; the physics settles it from there (tests of a scene that changed)."""
+        joint = self.model.joint(f"{name}_free")
+        adr, dof = joint.qposadr[0], joint.dofadr[0]
+        with self.lock:
+            qpos = self.data.qpos
+            qpos[adr : adr + 2] += (dx_m, dy_m)
+            turn = np.array([math.cos(dyaw_rad / 2), 0.0, 0.0, math.sin(dyaw_rad / 2)])
+            quat = np.empty(4)
+            mujoco.mju_mulQuat(quat, turn, qpos[adr + 3 : adr + 7].copy())
+            qpos[adr + 3 : adr + 7] = quat
+            self.data.qvel[dof : dof + 6] = 0.0
+            mujoco.mj_forward(self.model, self.data)
+
     def camera_pose(self) -> np.ndarray:
         """Ground-truth T_world_camera now (it moves with the flange when the camera is mounted there)."""
         if self.T_flange_camera is None:

@@ -35,7 +35,15 @@ from runtime.messaging.messages import PlanSummary
 from runtime.run.contact import contact_plans
 from runtime.run.context import RunContext, StageError
 from runtime.run.overlay import draw_tcp_poses
-from runtime.run.summary import MotionRecord, PhaseRecord, PlanningRecord, ReasoningRecord, Verification
+from runtime.run.second_look import look_again
+from runtime.run.summary import (
+    LookRecord,
+    MotionRecord,
+    PhaseRecord,
+    PlanningRecord,
+    ReasoningRecord,
+    Verification,
+)
 from runtime.run.verification import verify_run
 from safety.robot_model import RobotModel
 
@@ -48,7 +56,8 @@ ABORT_REST_S = 2.0  # an operator abort: how long the executor may take to come 
 
 
 class CaptureListener(Protocol):
-    """Told of every capture a run takes ("capture" before, "after" for verification), right after it."""
+    """Told of every capture a run takes ("capture" before, "look1", ... right before moving, "after" for
+    verification), right after it."""
 
     def on_capture(self, name: str, ctx: RunContext) -> None: ...
 
@@ -88,7 +97,8 @@ class PipelineStages:
             except RuntimeError as e:  # missing API keys, unusable model settings: the message names them
                 raise StageError(str(e)) from e
         try:
-            goal = self._reasoner.run(ctx.frame0, ctx.instruction, record_dir=str(ctx.record.dir / "reasoning"))
+            folder = "reasoning" if ctx.basis == "capture" else f"reasoning_{ctx.basis}"  # again after a change
+            goal = self._reasoner.run(ctx.frame0, ctx.instruction, record_dir=str(ctx.record.dir / folder))
         except ReasoningError as e:
             raise StageError(str(e)) from e
         ctx.goal = goal
@@ -180,6 +190,17 @@ class PipelineStages:
             },
         )
 
+    # -- the second look ----------------------------------------------------------------------------------
+    def recheck(self, ctx: RunContext) -> LookRecord:
+        name = f"look{len(ctx.record.summary.second_look) + 1}"
+        look = self._capture(ctx, name)
+        return look_again(ctx, look, name, self._segmenter_backend(ctx), self._features_backend(ctx))
+
+    def _segmenter_backend(self, ctx: RunContext) -> Segmenter:
+        if self._segmenter is None:
+            self._segmenter = build_segmenter(ctx.profile.pipeline)
+        return self._segmenter
+
     # -- execution ----------------------------------------------------------------------------------------
     def execute(self, ctx: RunContext) -> None:
         dev, profile, manipulation = ctx.devices, ctx.profile, ctx.manipulation
@@ -220,9 +241,7 @@ class PipelineStages:
     def verify(self, ctx: RunContext) -> Verification:
         time.sleep(SETTLE_S)  # the object comes to rest after the release (physical time: nothing to wait on)
         after = ctx.frame1 = self._capture(ctx, "after")
-        if self._segmenter is None:
-            self._segmenter = build_segmenter(ctx.profile.pipeline)
-        return verify_run(ctx, after, self._segmenter, self._features_backend(ctx))
+        return verify_run(ctx, after, self._segmenter_backend(ctx), self._features_backend(ctx))
 
 
 def _mask_picture(rgb: np.ndarray, mask_init: np.ndarray, mask_goal: np.ndarray) -> np.ndarray:

@@ -46,17 +46,19 @@ def truth_of(
 
 
 class SimTruth:
-    """A capture listener: the objects' centres at the first capture, the truth into the record at the second."""
+    """A capture listener: the objects' centres at every capture, and at the one after execution the truth into the
+    record, against the capture the executed plan was made from (ctx.basis: the first, or a second look's)."""
 
     def __init__(self) -> None:
-        self._before: dict[str, np.ndarray] = {}
+        self._centres: dict[str, dict[str, np.ndarray]] = {}
 
     def on_capture(self, name: str, ctx: RunContext) -> None:
         world = ctx.devices.world
         if world is None:
             raise RuntimeError("SimTruth listens to simulated runs only (devices.world is None)")
         centres, hinges = object_centres(world)
-        if name == "capture":
-            self._before = centres
-        elif name == "after":
-            ctx.record.summary.sim_truth = truth_of(ctx, before=self._before, after=centres, hinges=hinges)
+        if name == "after":
+            before = self._centres[ctx.basis]
+            ctx.record.summary.sim_truth = truth_of(ctx, before=before, after=centres, hinges=hinges)
+        else:
+            self._centres[name] = centres
