@@ -97,7 +97,9 @@ def plan_contacts(
         rejected.update(why)
     else:
         shift = transform_points(T_base_motion, pts.mean(axis=0)[None])[0] - pts.mean(axis=0)
-        candidates = push_candidates(pts, shift, cfg)
+        g = robot.spec.gripper
+        fingers = GripperBoxes(robot, 0.0).corners_tcp(g.min_width_m, g.finger_links)
+        candidates = push_candidates(pts, shift, cfg, gripper.corners_tcp(g.min_width_m), fingers)
         if not candidates:
             rejected["no horizontal motion to push along"] += 1
     total = len(candidates) + sum(rejected.values())

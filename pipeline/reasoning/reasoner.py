@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,6 +21,7 @@ from pipeline.config import PipelineConfig
 from pipeline.perception.depth import DepthEstimationError, DepthEstimator
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, matches
 from pipeline.reasoning import checks
+from pipeline.reasoning.instruction import with_colour_found
 from pipeline.reasoning.interfaces import ImageEditor, TextVLM
 from pipeline.reasoning.providers import ProviderError
 from pipeline.reasoning.record import Recorder
@@ -100,6 +101,7 @@ class Reasoner:
             raise ReasoningError(reason, [reason])
         mask_init = initial[0].mask
         rec.image("mask_init.png", mask_init)
+        enh = replace(enh, target=with_colour_found(enh.target, initial[0].label))  # to find it again, moved
         mask_anchor = None
         if enh.anchor:
             anchors = self._segment(rgb, enh.anchor)
