@@ -7,7 +7,11 @@ reasoning: segmentation, editing, reflection) passes when the run reaches GROUND
 the case's target object (the simulator's own segmentation of the first capture, the lid body for "close");
 later failures are counted by the state they ended in (grounding, planning = contact + motion + gate, executing,
 verifying); "done (truth)" is the simulator's verdict: the target's centre within 3 cm of where the goal motion
-puts it, a lid within 15 deg of shut (the verification's tolerances; a centre cannot judge a turn in place).
+puts it and, for a turn, a stand-up or a push (which must not tip it), its shape within 15 deg of the goal's turn
+(up to the turns its shape does not show), a lid within 15 deg of shut (the verification's tolerances). Per
+action: verified, really done, false successes (verified, not done) and false failures (done, not verified).
+An execution that stopped because this machine starved the simulated robot or the e-stop heartbeat (a stale or
+stalled joint state report, a late heartbeat) is counted as such: the load average is recorded with every run.
 Use seeds you did not tune on for the figures.
 
     python bench/generated_runs.py --seeds 2000:2040 --out gen.json [--runs-dir runs/gen] [--quick]
@@ -17,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -35,8 +40,10 @@ from rich.table import Table  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / "configs" / "sim.yaml"
-TARGETS = {"stage1_accepts_in_grammar": 0.95, "outside_grammar_refused": 1.0}
-TRUTH_TOL_M, LID_SHUT_DEG = 0.03, 15.0  # the verification's own tolerances (position, rotation)
+TARGETS = {"stage1_accepts_in_grammar": 0.95, "outside_grammar_refused": 1.0, "verified_and_done_fraction": 0.9}
+TRUTH_TOL_M, TRUTH_TURN_DEG, LID_SHUT_DEG = 0.03, 15.0, 15.0  # the verification's own tolerances
+TURN_JUDGED = ("rotate", "stand_up", "push")  # a place may leave the object turned (dropped into a bowl)
+LOAD_FAULTS = ("stale joint state", "the state report stalled", "no e-stop node heartbeat")
 STAGES = ("capturing", "reasoning", "grounding", "planning", "awaiting_confirm", "executing", "verifying")
 
 
@@ -69,8 +76,10 @@ def run_case(seed: int, runs_dir: Path, profile: Path) -> dict:
     cmd = [sys.executable, "-m", "runtime.commands.cli", "run", "--config", str(profile), "--scene", case.scene_name]
     cmd += ["--instruction", task.instruction, "--yes", "--record", str(record)]
     t0 = time.perf_counter()
+    load = os.getloadavg()[0]
     proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=600)
     out = {
+        "load_1min": round((load + os.getloadavg()[0]) / 2, 2),
         "seed": seed,
         "instruction": task.instruction,
         "action": task.action + (f" {task.relation}" if task.relation else ""),
@@ -103,10 +112,18 @@ def run_case(seed: int, runs_dir: Path, profile: Path) -> dict:
         angle = (truth.get("hinge_deg") or {}).get(f"{task.target}_hinge")
         out["done_truth"] = angle is not None and angle <= LID_SHUT_DEG
     else:
-        err = truth.get("target_goal_error_m")
-        out["done_truth"] = truth.get("target") == task.target and err is not None and err <= TRUTH_TOL_M
+        err, turn = truth.get("target_goal_error_m"), truth.get("target_turn_error_deg")
+        placed = truth.get("target") == task.target and err is not None and err <= TRUTH_TOL_M
+        turned = task.action not in TURN_JUDGED or (turn is not None and turn <= TRUTH_TURN_DEG)
+        out["done_truth"] = placed and turned
     out["verified"] = summary["status"] == "DONE"
+    out["load_fault"] = summary["status"] != "DONE" and any(f in summary.get("reason", "") for f in LOAD_FAULTS)
     return out
+
+
+def group(action: str) -> str:
+    """place on, place in, place beside (every side relation), or the action."""
+    return action if action in ("place on", "place in") else "place beside" if action.startswith("place") else action
 
 
 def outcome(r: dict) -> str:
@@ -118,6 +135,8 @@ def outcome(r: dict) -> str:
         return f"failed in {r['failed_in']}"
     if r["verified"]:
         return "verified" + ("" if r["done_truth"] else " (FALSE SUCCESS)")
+    if r.get("load_fault"):
+        return "stopped: machine load"
     return f"failed in {r['failed_in']}" + (" (done by truth)" if r["done_truth"] else "")
 
 
@@ -141,30 +160,61 @@ def main() -> int:
             r["outcome"] = outcome(r)
             console.print(f"{seed}: {r['instruction']!r} -> {r['outcome']} ({r['wall_s']} s)")
             results.append(r)
-    table = Table(title=f"generated runs, seeds {a}..{seeds[-1]}")
-    by_action: dict[str, Counter] = defaultdict(Counter)
-    for r in results:
-        by_action[r["action"]][r["outcome"]] += 1
-    outcomes = sorted({r["outcome"] for r in results})
-    table.add_column("action")
-    for o in outcomes:
-        table.add_column(o)
-    for action in sorted(by_action):
-        table.add_row(action, *(str(by_action[action][o] or "") for o in outcomes))
-    console.print(table)
     in_grammar = [r for r in results if "stage1_ok" in r or r.get("outcome") == "no record"]
     outside = [r for r in results if r["outcome"] in ("refused before start", "NOT REFUSED")]
-    stage1 = sum(bool(r.get("stage1_ok")) for r in in_grammar) / max(len(in_grammar), 1)
+    by_action: dict[str, list[dict]] = defaultdict(list)
+    for r in in_grammar:
+        by_action[group(r["action"])].append(r)
+    table = Table(title=f"generated runs, seeds {a}..{seeds[-1]}")
+    for column in (
+        "action",
+        "cases",
+        "verified",
+        "really done",
+        "false successes",
+        "false failures",
+        "machine load",
+        "ended in",
+    ):
+        table.add_column(column)
+    per_action = {}
+    for action in sorted(by_action):
+        rs = by_action[action]
+        row = {
+            "cases": len(rs),
+            "verified": sum(bool(r.get("verified")) for r in rs),
+            "done_truth": sum(bool(r.get("done_truth")) for r in rs),
+            "false_successes": sum(bool(r.get("verified")) and not r.get("done_truth") for r in rs),
+            "false_failures": sum(not r.get("verified") and bool(r.get("done_truth")) for r in rs),
+            "load_faults": sum(bool(r.get("load_fault")) for r in rs),
+            "ended_in": dict(Counter(r.get("failed_in") or "-" for r in rs if not r.get("verified"))),
+        }
+        per_action[action] = row
+        table.add_row(action, *(str(v) for v in list(row.values())[:-1]), str(row["ended_in"] or ""))
+    console.print(table)
+    n = max(len(in_grammar), 1)
+    stage1 = sum(bool(r.get("stage1_ok")) for r in in_grammar) / n
     refused = sum(r["outcome"] == "refused before start" for r in outside) / max(len(outside), 1)
+    walls = [r["wall_s"] for r in in_grammar]
     measured = {
         "stage1_accepts_in_grammar": round(stage1, 3),
         "outside_grammar_refused": round(refused, 3),
         "in_grammar_runs": len(in_grammar),
         "verified": sum(bool(r.get("verified")) for r in in_grammar),
         "done_truth": sum(bool(r.get("done_truth")) for r in in_grammar),
+        "verified_and_done_fraction": round(
+            sum(bool(r.get("verified")) and bool(r.get("done_truth")) for r in in_grammar) / n, 3
+        ),
         "false_successes": sum(bool(r.get("verified")) and not r.get("done_truth") for r in in_grammar),
+        "false_failures": sum(not r.get("verified") and bool(r.get("done_truth")) for r in in_grammar),
+        "false_failure_fraction": round(
+            sum(not r.get("verified") and bool(r.get("done_truth")) for r in in_grammar) / n, 3
+        ),
+        "load_faults": sum(bool(r.get("load_fault")) for r in in_grammar),
         "failed_in": dict(Counter(r.get("failed_in") or "-" for r in in_grammar if not r.get("verified"))),
-        "median_wall_s": float(np.median([r["wall_s"] for r in results])) if results else None,
+        "median_wall_s": float(np.median(walls)) if walls else None,
+        "load_1min_median": float(np.median([r["load_1min"] for r in results])) if results else None,
+        "per_action": per_action,
     }
     met = {k: measured[k] >= v for k, v in TARGETS.items()}
     console.print(measured, met)

@@ -167,6 +167,9 @@ class SimTruthRecord(Section):
     hinge_deg: dict[str, float]  # each hinge joint's angle after the run
     target: str | None = None  # a whole object that was moved: the one that moved most
     target_goal_error_m: float | None = None  # how far its centre ended from where the goal motion puts it
+    # how far it is turned from the goal motion's turn, up to the turns its shape does not show (a ball's, a
+    # cylinder's about its axis, a cube's quarter turns)
+    target_turn_error_deg: float | None = None
 
 
 class TransitionRecord(Section):
