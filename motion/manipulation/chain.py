@@ -26,7 +26,12 @@ REACH_TOL_M, REACH_TOL_RAD = 1e-3, 1e-2  # the contact's joints must put the TCP
 
 
 class ManipulationRefused(RuntimeError):
-    """A phase of the manipulation cannot be planned or approved; the message names the piece and why."""
+    """A phase of the manipulation cannot be planned or approved; the message names the piece and why. searched:
+    a randomised search found no path (another attempt may); else the refusal is the same on every attempt."""
+
+    def __init__(self, message: str, searched: bool = False) -> None:
+        super().__init__(message)
+        self.searched = searched
 
 
 class ManipulationChain:
@@ -98,7 +103,7 @@ class ManipulationChain:
         try:
             return planner.plan(qa, qb).waypoints
         except PlanningError as e:
-            raise ManipulationRefused(f"{what}: {e}") from e
+            raise ManipulationRefused(f"{what}: {e}", searched=True) from e
 
     def approved(
         self,

@@ -128,7 +128,7 @@ class Reasoner:
             if it.failure_kind in ("auth", "client"):
                 break  # no later iteration can fix a bad key or model name
 
-        reasons = [f"iteration {it.index}: {r}" for it in iterations for r in _reasons(it)]
+        reasons = _by_iterations(iterations)
         if accepted is None:
             if not (allow and usable is not None):
                 rec.json("reasoning.json", {"ok": False, "reasons": reasons, "seconds": seconds})
@@ -259,6 +259,24 @@ class Reasoner:
         if it.verdict is not None:
             rec.json("verdict.json", it.verdict, i)
         return _Candidate(cand, mask_goal, result, it)
+
+
+def _by_iterations(iterations: list[Iteration]) -> list[str]:
+    """Each distinct reason once, with the iterations that gave it: 'iterations 1-3: target missing ...'."""
+    seen: dict[str, list[int]] = {}
+    for it in iterations:
+        for r in _reasons(it):
+            seen.setdefault(r, []).append(it.index)
+    out = []
+    for reason, its in seen.items():
+        runs = its[0] == its[-1] - len(its) + 1 and len(its) > 1
+        which = (
+            f"iterations {its[0]}-{its[-1]}"
+            if runs
+            else f"iteration{'s' if len(its) > 1 else ''} " + ", ".join(map(str, its))
+        )
+        out.append(f"{which}: {reason}")
+    return out
 
 
 def _reasons(it: Iteration) -> list[str]:

@@ -50,7 +50,7 @@ from safety.robot_model import RobotModel
 log = logging.getLogger(__name__)
 
 MAX_CONTACTS = 3  # ranked contact decisions tried before planning gives up
-PLAN_ATTEMPTS = 2  # planning attempts per contact (OMPL is randomised)
+PLAN_ATTEMPTS = 2  # planning attempts per contact when a path search failed (OMPL is randomised)
 SETTLE_S = 0.3  # after the last phase, before the capture that verifies: the object comes to rest
 ABORT_REST_S = 2.0  # an operator abort: how long the executor may take to come to rest on its path
 
@@ -158,13 +158,21 @@ class PipelineStages:
             target=clouds.target,
         )
         refusals = []
-        contacts = self.contacts(ctx, clouds, robot, q_start)[:MAX_CONTACTS]
-        for contact in [c for c in contacts for _ in range(PLAN_ATTEMPTS)]:  # OMPL may find a path on a retry
-            try:
-                manipulation = plan_manipulation(chain, contact)
+        manipulation = None
+        for contact in self.contacts(ctx, clouds, robot, q_start)[:MAX_CONTACTS]:
+            for attempt in range(1, PLAN_ATTEMPTS + 1):
+                try:
+                    manipulation = plan_manipulation(chain, contact)
+                    break
+                except ManipulationRefused as e:
+                    refusal = f"{contact.source}: {e}" + (f" ({attempt} attempts)" if attempt > 1 else "")
+                    if attempt > 1:
+                        refusals.pop()
+                    refusals.append(refusal)
+                    if not e.searched:  # the same on every attempt: only a path search may find one next time
+                        break
+            if manipulation is not None:
                 break
-            except ManipulationRefused as e:
-                refusals.append(f"{contact.source}: {e}")
         else:
             ctx.record.summary.planning = PlanningRecord(refusals=refusals)
             raise StageError("no contact could be planned:\n  " + "\n  ".join(refusals))

@@ -93,7 +93,8 @@ def test_wrong_relation_is_rejected_each_iteration_and_the_run_fails(sim_view, c
     editor = ScriptedEditor(wrong, wrong, wrong)
     with pytest.raises(ReasoningError) as e:
         reasoner(editor).run(frame, "put the red block left of the green cylinder", record_dir=tmp_path)
-    assert len(e.value.reasons) == 3 and all("'left of' does not hold" in r for r in e.value.reasons)
+    (reason,) = e.value.reasons  # the same reason each time: said once, with the iterations that gave it
+    assert reason.startswith("iterations 1-3: 'left of' does not hold")
     assert not json.loads((tmp_path / "reasoning.json").read_text())["ok"]
 
 
@@ -173,3 +174,21 @@ def test_build_reasoner_fails_at_start_up_without_keys(monkeypatch):
 def test_offline_depth_is_wired_to_the_offline_editor():
     r = build_reasoner(PipelineConfig())
     assert isinstance(r.depth, OfflineDepthEstimator) and r.editor.depth_registry is r.depth
+
+
+def test_a_reason_given_by_several_iterations_is_said_once_with_them():
+    from pipeline.reasoning.reasoner import _by_iterations
+    from pipeline.reasoning.types import Iteration, Verdict
+
+    missing = Verdict(False, ("target 'cylinder' missing from the candidate",))
+    iterations = [
+        Iteration(1, "p", verdict=missing),
+        Iteration(2, "p", failure="timeout after 30 s"),
+        Iteration(3, "p", verdict=missing),
+        Iteration(4, "p", verdict=missing),
+    ]
+    assert _by_iterations(iterations) == [
+        "iterations 1, 3, 4: target 'cylinder' missing from the candidate",
+        "iteration 2: timeout after 30 s",
+    ]
+    assert _by_iterations(iterations[2:]) == ["iterations 3-4: target 'cylinder' missing from the candidate"]
