@@ -46,13 +46,15 @@ def _run(sim_config_path, tmp_path, stages, **second_look):
 
 
 def test_a_target_moved_after_planning_is_replanned_from_the_second_look(sim_config_path, tmp_path):
-    stages = NudgedAfterPlanning("red_block", 0.03, 0.02, 25.0)
+    # turned less than verification judges a turn the goal asks for (10 deg): a cube's registration may pick any of
+    # its quarter turns, and the re-based goal motion carries the turn back
+    stages = NudgedAfterPlanning("red_block", 0.03, 0.02, 8.0)
     result, block, plate = _run(sim_config_path, tmp_path, stages)
     assert result.status == State.DONE, result.reason
     first, second = result.summary.second_look
     assert first.decision == "replan" and first.compared_with == "capture"
     assert first.target_shift_m == pytest.approx(np.hypot(0.03, 0.02), abs=0.006)
-    assert min(abs(first.target_turn_deg - 25.0), abs(first.target_turn_deg - 65.0)) < 4.0  # a cube: 90 deg apart
+    assert abs(first.target_turn_deg - 8.0) < 3.0
     assert {c.what for c in first.changes} == {"target"}
     assert second.decision == "still" and second.compared_with == "look1"
     states = [t.state for t in result.summary.transitions]
