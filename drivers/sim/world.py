@@ -7,9 +7,7 @@ its own thread (`realtime`, like hardware: time passes whether or not anyone com
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
 import threading
 import time
 import xml.etree.ElementTree as ET
@@ -30,7 +28,6 @@ TABLE_SIZE_M = (1.4, 1.6, 0.04)
 TABLE_CENTER_XY_M = (0.3, 0.0)
 CAMERA_NAME = "femto_bolt"
 MAX_RENDER_SIZE = (1920, 1080)
-ROBOT_PRIORITY = 20  # SCHED_FIFO of the real-time physics thread (the executor streams at 10), as the emulator's
 
 
 def look_at(position: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -306,10 +303,6 @@ class SimWorld:
             self._thread = None
 
     def _run(self) -> None:
-        # the twin stands for the robot, which keeps time whatever the PC's load: SCHED_FIFO where permitted (root or
-        # CAP_SYS_NICE), above the executor's streaming thread; a normal thread otherwise
-        with contextlib.suppress(OSError, AttributeError):
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(ROBOT_PRIORITY))
         dt = self.model.opt.timestep
         t0_wall, t0_sim = time.perf_counter(), self.data.time
         while self._running.is_set():

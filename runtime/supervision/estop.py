@@ -12,7 +12,6 @@ On the receiving side every sample on the estop key stops the robot; `estop_reas
 
 from __future__ import annotations
 
-import contextlib
 import os
 import sys
 import termios
@@ -22,8 +21,6 @@ import tty
 
 from runtime.messaging.bus import Bus
 from runtime.messaging.messages import EStop, Heartbeat, MessageRefused, decode, printable
-
-HEARTBEAT_PRIORITY = 15  # SCHED_FIFO of an in-process node's heartbeat thread where permitted
 
 
 def estop_reason(payload: bytes) -> str:
@@ -57,10 +54,6 @@ class EStopNode:
             self._thread.join(timeout=1.0)
 
     def _beat(self) -> None:
-        # the node stands for a pendant on its own computer, whose heartbeat this PC's load does not delay:
-        # SCHED_FIFO where permitted, a normal thread otherwise
-        with contextlib.suppress(OSError, AttributeError):
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(HEARTBEAT_PRIORITY))
         key = self.bus.keys.heartbeat_of(self.node)
         next_t = time.monotonic()
         while not self._stop.is_set():
