@@ -21,8 +21,8 @@ class MotionConfig(StrictModel):
         default=0.1,
         gt=0,
         le=1.0,
-        description="TCP speed limit while pushing (a push, a hinge push): a faster push throws the object on past "
-        "where the fingers stop, or tips it",
+        description="TCP speed limit of a straight push: a faster one throws the object on past where the fingers "
+        "stop, or tips it",
     )
     blend_free_moves: bool = Field(
         default=True,

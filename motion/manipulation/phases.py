@@ -9,8 +9,8 @@ cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
           release, open as wide as the approach did) -> retreat (back along the approach axis, else straight up)
           -> home (the placed object is an obstacle). The release is the contact's: just above the goal, or higher
           where the fingers would touch the scene lower (a container's walls), the object dropping the rest.
-  push:   approach (free path, close the fingers) -> push (straight in, push along the motion, back off along the
-          tilted hand, else straight up; slow, at motion.push_tcp_speed_m_s) -> home
+  push:   approach (free path, close the fingers) -> push (straight in, push along the motion at
+          motion.push_tcp_speed_m_s, back off along the tilted hand, else straight up) -> home
   hinge:  as push, the push following the via poses along the hinged part's arc (a Cartesian line between each
           two), ending just off the turned part, whence straight up is away from it
 The free paths end at the joints contact planning solved (pre-contact, above the place), checked in each phase's
@@ -128,7 +128,8 @@ def plan_push(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     # a hinge push ends just off the part it shut: straight up; a straight push ends with the fingertips at the
     # object: back off along the tilted hand first
     back = _retreat(chain, planner, path[-1][-1], contact.T_goal, after, "retreat after the push", up, not contact.via)
-    pushing = chain.approved([*path, back], touching, q_pre, "push", pushing=True)
+    # a straight push moves a free object, which a fast one throws on past the fingers; a hinged part cannot go on
+    pushing = chain.approved([*path, back], touching, q_pre, "push", pushing=not contact.via)
     home = _home(chain, after, back[-1])
     arc = {f"arc {k}": T for k, T in enumerate(contact.via, start=1)}
     waypoints = {"pre-push": contact.T_pre, "contact": contact.T_contact, **arc, "push end": contact.T_goal}
