@@ -260,6 +260,10 @@ def _pre_contact(c: Candidate, distance_m: float) -> np.ndarray:
     return out
 
 
+def _turn_rad(R_a: np.ndarray, R_b: np.ndarray) -> float:
+    return float(np.arccos(np.clip((np.trace(R_a.T @ R_b) - 1.0) / 2.0, -1.0, 1.0)))
+
+
 def _half_turn(c: Candidate) -> Candidate:
     """The same contact with the gripper turned half a turn about its approach axis."""
     return replace(
@@ -300,7 +304,11 @@ def _reachable_plan(
     """The candidate's plan, from the first wrist twin and object motion whose poses all have IK; else _Unreachable
     with why the candidate as sampled (first twin, first motion) fails."""
     first: _Unreachable | None = None
-    for twin in (c, _half_turn(c)):
+    R_now = robot.tcp_pose(seed)[:3, :3]
+    # the twin nearer the hand's present turn first: the other wrist may be as reachable but half a turn of joint 7
+    # away, where a path there is long and often not found
+    twins = sorted((c, _half_turn(c)), key=lambda t: _turn_rad(R_now, t.T_contact[:3, :3]))
+    for twin in twins:
         try:
             accepts = _Acceptance(twin, cfg, robot, world, placing)
             return _twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing)
