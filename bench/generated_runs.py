@@ -7,8 +7,8 @@ reasoning: segmentation, editing, reflection) passes when the run reaches GROUND
 the case's target object (the simulator's own segmentation of the first capture, the lid body for "close");
 later failures are counted by the state they ended in (grounding, planning = contact + motion + gate, executing,
 verifying); "done (truth)" is the simulator's verdict: the target's centre within 3 cm of where the goal motion
-puts it and, for a turn, a stand-up or a push (which must not tip it), its shape within 15 deg of the goal's turn
-(up to the turns its shape does not show), a lid within 15 deg of shut (the verification's tolerances). Per
+puts it and, for a turn or a stand-up, its shape within 15 deg of the goal's turn (up to the turns its shape does
+not show), for a push not tipped more than 15 deg, a lid within 15 deg of shut (the verification's tolerances). Per
 action: verified, really done, false successes (verified, not done) and false failures (done, not verified).
 An execution that stopped because this machine starved the simulated robot or the e-stop heartbeat (a stale or
 stalled joint state report, a late heartbeat) is run once more (--no-again-after-load-fault: not) and counted as
@@ -43,7 +43,8 @@ REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / "configs" / "sim.yaml"
 TARGETS = {"stage1_accepts_in_grammar": 0.95, "outside_grammar_refused": 1.0, "verified_and_done_fraction": 0.9}
 TRUTH_TOL_M, TRUTH_TURN_DEG, LID_SHUT_DEG = 0.03, 15.0, 15.0  # the verification's own tolerances
-TURN_JUDGED = ("rotate", "stand_up", "push")  # a place may leave the object turned (dropped into a bowl)
+TURN_JUDGED = ("rotate", "stand_up")  # a place may leave the object turned (dropped into a bowl)
+TILT_JUDGED = ("push",)  # a push must not tip the object (a twist along the way is no matter)
 LOAD_FAULTS = ("stale joint state", "the state report stalled", "no e-stop node heartbeat")
 STAGES = ("capturing", "reasoning", "grounding", "planning", "awaiting_confirm", "executing", "verifying")
 
@@ -114,9 +115,11 @@ def run_case(seed: int, runs_dir: Path, profile: Path, attempt: int = 1) -> dict
         out["done_truth"] = angle is not None and angle <= LID_SHUT_DEG
     else:
         err, turn = truth.get("target_goal_error_m"), truth.get("target_turn_error_deg")
+        tilt = truth.get("target_tilt_error_deg")
         placed = truth.get("target") == task.target and err is not None and err <= TRUTH_TOL_M
         turned = task.action not in TURN_JUDGED or (turn is not None and turn <= TRUTH_TURN_DEG)
-        out["done_truth"] = placed and turned
+        upright = task.action not in TILT_JUDGED or (tilt is not None and tilt <= TRUTH_TURN_DEG)
+        out["done_truth"] = placed and turned and upright
     out["verified"] = summary["status"] == "DONE"
     out["load_fault"] = summary["status"] != "DONE" and any(f in summary.get("reason", "") for f in LOAD_FAULTS)
     return out

@@ -170,6 +170,9 @@ class SimTruthRecord(Section):
     # how far it is turned from the goal motion's turn, up to the turns its shape does not show (a ball's, a
     # cylinder's about its axis, a cube's quarter turns)
     target_turn_error_deg: float | None = None
+    target_tilt_error_deg: float | None = (
+        None  # ... and tipped from the goal's pose (a turn about the vertical is none)
+    )
 
 
 class TransitionRecord(Section):

@@ -73,6 +73,17 @@ def turn_error_deg(o: SceneObject, R_want: np.ndarray, R_now: np.ndarray) -> flo
     return min(float(np.degrees(Rotation.from_matrix(R_now.T @ R_want @ S).magnitude())) for S in turns)
 
 
+def tilt_error_deg(o: SceneObject, R_want: np.ndarray, R_now: np.ndarray) -> float:
+    """How far the object is tipped from the goal's pose (which way up it stands), up to the same symmetric turns;
+    a turn about the vertical is no tip."""
+    if o.kind in ("sphere", "cylinder", "bottle", "plate", "bowl"):
+        return turn_error_deg(o, R_want, R_now)  # a body of revolution's only visible turn tips its axis
+    up = np.array([0.0, 0.0, 1.0])
+    turns = _box_turns(o.size_m) if o.kind in ("box", "platform") and o.size_m else [np.eye(3)]
+    now = R_now.T @ up
+    return min(float(np.degrees(np.arccos(np.clip(now @ ((R_want @ S).T @ up), -1.0, 1.0)))) for S in turns)
+
+
 def truth_of(
     ctx: RunContext, *, before: WorldState, after: WorldState, objects: dict[str, SceneObject]
 ) -> SimTruthRecord:
@@ -87,13 +98,14 @@ def truth_of(
     name = max(moved, key=moved.get)
     T = motion.T_base
     error = float(np.linalg.norm(after.centres[name] - (T[:3, :3] @ before.centres[name] + T[:3, 3])))
-    turn = turn_error_deg(objects[name], T[:3, :3] @ before.frames[name], after.frames[name])
+    o, R_want, R_now = objects[name], T[:3, :3] @ before.frames[name], after.frames[name]
     return SimTruthRecord(
         object_displacement_m=moved,
         hinge_deg=after.hinges,
         target=name,
         target_goal_error_m=error,
-        target_turn_error_deg=round(turn, 2),
+        target_turn_error_deg=round(turn_error_deg(o, R_want, R_now), 2),
+        target_tilt_error_deg=round(tilt_error_deg(o, R_want, R_now), 2),
     )
 
 
