@@ -70,8 +70,8 @@ def relation_holds(mask: np.ndarray, ref: Detection, relation: str, target: str,
         ok = bottom < rvc
     elif relation == "in_front_of":
         ok = bottom > v1
-    else:  # next to: apart, and no farther than two object sizes
-        overlap = (mask & ref.mask).any()
+    else:  # next to: apart (or in front of it, hiding part of it), and no farther than two object sizes
+        overlap = (mask & ref.mask).any() and bottom <= v1
         gap = max(abs(uc - ruc) - (u1 - u0) / 2 - np.ptp(u) / 2, abs(float(v.mean()) - rvc) - (v1 - v0) / 2, 0.0)
         ok = bool(not overlap and gap < 2.0 * max(u1 - u0, v1 - v0, np.ptp(u)))
     verb = "holds" if ok else "does not hold"

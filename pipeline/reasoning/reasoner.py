@@ -226,6 +226,14 @@ class Reasoner:
                 it.registered = True
                 it.checks.append(f"{note}; re-registered ({100 * uncovered:.1f} % of the view uncovered)")
                 found = self._segment(cand, enh.target)
+        alike = checks.like_the_target(found, rgb, mask_init, cand)
+        if len(alike) < len(found):
+            areas = ", ".join(str(d.area_px) for d in found)
+            it.checks.append(
+                f"target '{enh.target}' matched {len(found)} regions (areas {areas} px): took the one "
+                f"of the target's size ({alike[0].area_px} px, {int(mask_init.sum())} px before)"
+            )
+            found = alike
         problems += checks.target_count_problems(found, enh.target)
         mask_goal = found[0].mask if len(found) == 1 else None
         if mask_goal is not None:
