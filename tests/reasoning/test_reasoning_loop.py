@@ -192,3 +192,24 @@ def test_a_reason_given_by_several_iterations_is_said_once_with_them():
         "iteration 2: timeout after 30 s",
     ]
     assert _by_iterations(iterations[2:]) == ["iterations 3-4: target 'cylinder' missing from the candidate"]
+
+
+def test_of_several_matches_in_the_goal_image_the_one_like_the_target_is_taken():
+    from pipeline.perception.segmenter import Detection, box_of
+    from pipeline.reasoning.checks import like_the_target
+
+    rgb = np.zeros((60, 80, 3), np.uint8)
+    target0 = np.zeros((60, 80), bool)
+    target0[10:20, 10:20] = True  # 100 px, green
+    rgb[target0] = (60, 200, 60)
+    moved, bottle, ball = (np.zeros((60, 80), bool) for _ in range(3))
+    moved[30:40, 50:60] = True  # the target moved: its size and colour
+    bottle[5:45, 30:45] = True  # a green bottle, six times larger
+    ball[45:55, 5:15] = True  # a ball of its size, another green
+    rgb[moved], rgb[bottle], rgb[ball] = (60, 200, 60), (30, 100, 40), (20, 120, 20)
+    det = lambda m: Detection(m, 1.0, box_of(m), "green")  # noqa: E731
+    (taken,) = like_the_target([det(bottle), det(moved)], rgb, target0, rgb)
+    assert taken.mask is moved
+    assert len(like_the_target([det(bottle), det(ball)], rgb, target0, rgb)) == 2  # the ball is not its colour
+    twice = [det(moved), det(target0)]  # drawn again, left where it was too: refused as two
+    assert len(like_the_target(twice, rgb, target0, rgb)) == 2
