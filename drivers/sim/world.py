@@ -7,7 +7,9 @@ its own thread (`realtime`, like hardware: time passes whether or not anyone com
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import threading
 import time
 import xml.etree.ElementTree as ET
@@ -28,6 +30,7 @@ TABLE_SIZE_M = (1.4, 1.6, 0.04)
 TABLE_CENTER_XY_M = (0.3, 0.0)
 CAMERA_NAME = "femto_bolt"
 MAX_RENDER_SIZE = (1920, 1080)
+PHYSICS_NICE = -10  # the real-time physics thread's nice value where permitted
 
 
 def look_at(position: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -303,6 +306,11 @@ class SimWorld:
             self._thread = None
 
     def _run(self) -> None:
+        # the twin stands for the robot, which keeps time whatever the PC's load: a higher share of the CPU where
+        # permitted (a nicer-than-normal thread, not a real-time one: a real-time thread holding the GIL would
+        # starve the process's other threads, the Zenoh callbacks that receive heartbeats among them)
+        with contextlib.suppress(OSError, AttributeError):
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), PHYSICS_NICE)
         dt = self.model.opt.timestep
         t0_wall, t0_sim = time.perf_counter(), self.data.time
         while self._running.is_set():
