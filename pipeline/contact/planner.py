@@ -13,9 +13,10 @@ long, onto an object that stands close, the fingers stay above the rim and the o
 is checked there holding the object and opened as far as it opens to let go, and the joints there and above must
 be free of the scene with the object in the hand (the carry's own world).
 
-Two freedoms the candidates do not spell out are used when a candidate's IK fails. The parallel gripper looks the
-same after a half turn about its approach axis, but the wrist does not (link7 is off its axis): one twin may
-fold link5 onto link7 where the other is free. And a grasped body of revolution (symmetry.py) reaches the same
+Two freedoms the candidates do not spell out are used. The parallel gripper looks the same after a half turn about
+its approach axis, but the wrist does not (link7 is off its axis): one twin may fold link5 onto link7 where the
+other is free, so each twin that is reachable is a plan of its own, the one nearer the hand's present turn first.
+And a grasped body of revolution (symmetry.py) reaches the same
 goal turned about its own axis, a turn the images cannot show, so the goal is also tried turned about that axis:
 first by the turn that keeps the gripper most upright at the goal (the registration's turn about the axis is
 arbitrary, and a lying bottle's may roll the grasp into the table), then in 45 deg steps; the plan then carries
@@ -42,6 +43,10 @@ from safety.ik import IKSettings
 from safety.robot_model import RobotModel
 
 IK_SETTINGS = IKSettings(restarts=6, max_iterations=80)
+# the goal and set-down poses, seeded from the contact's joints: most are reached from the seed or not at all, and
+# a body of revolution tries them under several turns, so a failing one must fail fast
+GOAL_IK_SETTINGS = IKSettings(restarts=2, max_iterations=60)
+MAX_TURNS_TRIED = 8  # a body of revolution's goal turns tried per contact, the most natural for the wrist first
 HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the TCP's approach axis: the same grasp, the other wrist
 SPIN_DEG = (45.0, -45.0, 90.0, -90.0, 135.0, -135.0, 180.0)  # turns of a body of revolution about its axis
 UPRIGHT_STEP_DEG = 5.0  # the search for the turn about a body's axis that keeps a top grasp upright
@@ -122,10 +127,11 @@ def plan_contacts(
     seed = robot.home_q if q_seed is None else np.asarray(q_seed, dtype=np.float64)
     for c in geometric[: cfg.ik_candidates]:
         try:
-            plans.append(_reachable_plan(c, cfg, robot, seed, motions, goal_check, collision_world, placing))
+            plans += _reachable_plans(c, cfg, robot, seed, motions, goal_check, collision_world, placing)
         except _Unreachable as e:
             rejected[e.reason] += 1
-        if len(plans) == cfg.keep:
+        if len(plans) >= cfg.keep:
+            plans = plans[: cfg.keep]
             break
     rejected["not checked for reachability (enough plans)"] += max(0, len(geometric) - cfg.ik_candidates)
     # the grounded motion first, then the least turn about a body's axis: the turn is not in the images, but the
@@ -291,7 +297,7 @@ class _Placing:
     tcp_link: str
 
 
-def _reachable_plan(
+def _reachable_plans(
     c: Candidate,
     cfg: ContactConfig,
     robot: RobotModel,
@@ -300,21 +306,23 @@ def _reachable_plan(
     goal_check: _GoalCheck,
     world,
     placing: _Placing,
-) -> ContactPlan:
-    """The candidate's plan, from the first wrist twin and object motion whose poses all have IK; else _Unreachable
-    with why the candidate as sampled (first twin, first motion) fails."""
-    first: _Unreachable | None = None
+) -> list[ContactPlan]:
+    """The candidate's plan for each wrist twin whose poses all have IK (under the first object motion that has),
+    the twin nearer the hand's present turn first: the other may be half a turn of joint 7 away, where a path is
+    long and often not found, or be the one whose lines the arm can follow; else _Unreachable with why the
+    candidate fails (the first twin tried)."""
     R_now = robot.tcp_pose(seed)[:3, :3]
-    # the twin nearer the hand's present turn first: the other wrist may be as reachable but half a turn of joint 7
-    # away, where a path there is long and often not found
     twins = sorted((c, _half_turn(c)), key=lambda t: _turn_rad(R_now, t.T_contact[:3, :3]))
+    plans, first = [], None
     for twin in twins:
         try:
             accepts = _Acceptance(twin, cfg, robot, world, placing)
-            return _twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing)
+            plans.append(_twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing))
         except _Unreachable as e:
             first = first or e
-    raise first
+    if not plans:
+        raise first
+    return plans
 
 
 class _Acceptance:
@@ -368,7 +376,8 @@ def _twin_plan(
             raise _Unreachable(f"{where} pose out of reach")
         qs.append(r.q)
     first = ""
-    for k, M in enumerate(motions):
+    for k in _turns_to_try(c, motions, robot):
+        M = motions[k]
         T_goal = _goal(c, M)
         lifts, why = goal_check.ending(c, T_goal, k)
         if why:
@@ -378,6 +387,21 @@ def _twin_plan(
             return _plan(c, cfg, robot, T_pre, M, qs, goal, placing)
         first = first or why
     raise _Unreachable(first or "goal pose out of reach")
+
+
+def _turns_to_try(c: Candidate, motions: list[np.ndarray], robot: RobotModel) -> list[int]:
+    """The motions (indices) to try for this contact: the grounded one, then up to MAX_TURNS_TRIED - 1 of the turns
+    about a body's axis, those that leave the hand pointing most away from the robot's base first (a hand at the
+    goal pointing back at the arm is one the arm cannot take)."""
+    if len(motions) <= 1:
+        return list(range(len(motions)))
+
+    def away(k: int) -> float:
+        T = _goal(c, motions[k])
+        radial = T[:2, 3] / max(float(np.linalg.norm(T[:2, 3])), 1e-9)
+        return float(T[:2, 2] @ radial)
+
+    return [0, *sorted(range(1, len(motions)), key=away, reverse=True)[: MAX_TURNS_TRIED - 1]]
 
 
 def _goal_ik(
@@ -390,7 +414,7 @@ def _goal_ik(
         T = T_goal.copy()
         T[2, 3] += lift
         accept = accepts.of("goal" if not out else "place")
-        r = robot.ik(T, out[-1][1] if out else q_from, settings=IK_SETTINGS, accept=accept)
+        r = robot.ik(T, out[-1][1] if out else q_from, settings=GOAL_IK_SETTINGS, accept=accept)
         if not r.success:
             what = "goal pose" if not out else "pose to let go from" if len(out) == 1 else "pose above the place"
             held = " with the object in the hand" if out and accept is not None else ""
