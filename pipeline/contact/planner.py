@@ -112,16 +112,22 @@ def plan_contacts(
     scene_tree = cKDTree(scene) if len(scene) else None
     placing = _Placing(pts, object_name, robot.tcp_frame)
     goal_check = _GoalCheck(cfg, robot, scene, scene_tree, [transform_points(M, pts) for M in motions], placing)
-    geometric = []
+    geometric, drops = [], {}
     for c in candidates:
-        reason = _contact_reason(c, cfg, gripper, scene, robot) or goal_check.first_reason(c, motions)
+        reason = _contact_reason(c, cfg, gripper, scene, robot)
+        if not reason:
+            drops[id(c)], reason = goal_check.least_drop(c, motions)
         if reason:
             rejected[reason] += 1
         else:
             geometric.append(c)
     w = cfg.weights
+    # the object let go lowest first (a narrow can dropped beside a neighbour tips over), then the best scored
     geometric.sort(
-        key=lambda c: -(w["antipodal"] * c.antipodal + w["centred"] * c.centred + w["approach"] * c.approach)
+        key=lambda c: (
+            round(drops[id(c)] * 100),
+            -(w["antipodal"] * c.antipodal + w["centred"] * c.centred + w["approach"] * c.approach),
+        )
     )
     plans = []
     seed = robot.home_q if q_seed is None else np.asarray(q_seed, dtype=np.float64)
@@ -134,9 +140,9 @@ def plan_contacts(
             plans = plans[: cfg.keep]
             break
     rejected["not checked for reachability (enough plans)"] += max(0, len(geometric) - cfg.ik_candidates)
-    # the grounded motion first, then the least turn about a body's axis: the turn is not in the images, but the
-    # verification's registration may still see part of it
-    plans.sort(key=lambda p: (round(turn_deg(p.T_motion, T_base_motion)), -p.score))
+    # the object let go lowest first; then the grounded motion, then the least turn about a body's axis: the turn
+    # is not in the images, but the verification's registration may still see part of it
+    plans.sort(key=lambda p: (round(_drop(p, cfg) * 100), round(turn_deg(p.T_motion, T_base_motion)), -p.score))
     return ContactResult(plans, {k: v for k, v in rejected.items() if v}, total)
 
 
@@ -243,10 +249,14 @@ class _GoalCheck:
                 return tuple(h + float(extra) for h in lifts), ""
         return (), f"gripper {why} at every release height"
 
-    def first_reason(self, c: Candidate, motions: list[np.ndarray]) -> str:
-        """The first motion's reason when the candidate can end under none of them (empty when it can)."""
-        reasons = [self.ending(c, _goal(c, M), k)[1] for k, M in enumerate(motions)]
-        return "" if not all(reasons) else reasons[0]
+    def least_drop(self, c: Candidate, motions: list[np.ndarray]) -> tuple[float, str]:
+        """(the least height beyond place_lifts_m[0] the object is let go from under any motion, "") or (0, the
+        first motion's reason) when the candidate can end under none of them."""
+        endings = [self.ending(c, _goal(c, M), k) for k, M in enumerate(motions)]
+        lifts = [h[0] - (self.cfg.place_lifts_m or (0.0,))[0] for h, why in endings if not why and h]
+        if any(not why for _, why in endings):
+            return (min(lifts) if lifts else 0.0), ""
+        return 0.0, endings[0][1]
 
 
 def _goal(c: Candidate, T_motion: np.ndarray) -> np.ndarray:
@@ -264,6 +274,13 @@ def _pre_contact(c: Candidate, distance_m: float) -> np.ndarray:
     out = c.T_contact.copy()
     out[:3, 3] += distance_m * (-c.T_contact[:3, 2] if c.back_off is None else c.back_off)
     return out
+
+
+def _drop(plan: ContactPlan, cfg: ContactConfig) -> float:
+    """How much higher than place_lifts_m[0] above its goal the plan lets the object go (0 for a push)."""
+    if not plan.T_place or not cfg.place_lifts_m:
+        return 0.0
+    return float(plan.T_place[0][2, 3] - plan.T_goal[2, 3] - cfg.place_lifts_m[0])
 
 
 def _turn_rad(R_a: np.ndarray, R_b: np.ndarray) -> float:
