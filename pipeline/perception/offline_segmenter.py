@@ -129,7 +129,14 @@ class OfflineSegmenter(Segmenter):
         check_rgb(rgb, "offline segmenter")
         want = parse_phrase(phrase)
         instances = self.instances(rgb)
-        lids = {id(lid) for i in instances if i.kind == "lidded_box" for lid in [_attached_lid(i, instances)] if lid}
+        # a lidded box's lid is no object of its own, whatever it looks like (an open lid seen edge-on: a bottle)
+        lids = {
+            id(lid)
+            for i in instances
+            if i.kind == "lidded_box"
+            for lid in [_attached_lid(i, instances, any_shape=True)]
+            if lid
+        }
         candidates = [i for i in instances if id(i) not in lids]
         objects = _matching(candidates, want, self.min_shape_score)
         if not objects and want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
