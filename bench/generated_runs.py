@@ -10,9 +10,10 @@ verifying); "done (truth)" is the simulator's verdict: the target's centre withi
 puts it and, for a turn or a stand-up, its shape within 15 deg of the goal's turn (up to the turns its shape does
 not show), for a push not tipped more than 15 deg, a lid within 15 deg of shut (the verification's tolerances). Per
 action: verified, really done, false successes (verified, not done) and false failures (done, not verified).
-An execution that stopped because this machine starved the simulated robot or the e-stop heartbeat (a stale or
-stalled joint state report, a late heartbeat) is run once more (--no-again-after-load-fault: not) and counted as
-such if it stops so again; the load average is recorded with every run.
+A run that stopped because this machine starved the simulated robot, the e-stop heartbeat or the renderer (a stale
+or stalled joint state report, a late heartbeat, a capture over its 5 s budget) is run once more
+(--no-again-after-load-fault: not) and counted as such if it stops so again; the load average is recorded with
+every run.
 With --stepped the in-grammar runs go through the same Runtime and stages in this process with the physics
 stepped by the executor's clock (a loaded machine cannot starve the simulated robot; wall times then say nothing
 of real time). Use seeds you did not tune on for the figures.
@@ -47,7 +48,7 @@ TARGETS = {"stage1_accepts_in_grammar": 0.95, "outside_grammar_refused": 1.0, "v
 TRUTH_TOL_M, TRUTH_TURN_DEG, LID_SHUT_DEG = 0.03, 15.0, 15.0  # the verification's own tolerances
 TURN_JUDGED = ("rotate", "stand_up")  # a place may leave the object turned (dropped into a bowl)
 TILT_JUDGED = ("push",)  # a push must not tip the object (a twist along the way is no matter)
-LOAD_FAULTS = ("stale joint state", "the state report stalled", "no e-stop node heartbeat")
+LOAD_FAULTS = ("stale joint state", "the state report stalled", "no e-stop node heartbeat", "CAPTURING took too long")
 STAGES = ("capturing", "reasoning", "grounding", "planning", "awaiting_confirm", "executing", "verifying")
 
 
