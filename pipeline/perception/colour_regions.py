@@ -49,6 +49,7 @@ SPLIT_SATURATION_RATIO = 0.65
 PART_BORDER_FRACTION = 0.6  # an unsaturated region this much bordered by one region can be its lit face
 SPLIT_BLACK_MAX, SPLIT_LIGHT_MIN = 0.15, 0.55  # a black object's value (lit faces too) and a light one's
 SPLIT_MIN_PX = 30
+LIT_FACE_MIN_VALUE = 0.6  # an unsaturated region darker than this is no lit face of a coloured object
 ACHROMATIC_LABEL = len(CHROMATIC)
 BACKGROUND_LABEL = -1
 
@@ -225,7 +226,8 @@ def _lit_face_of(ids: np.ndarray, names: list[str], i: int, hue: np.ndarray, sat
     if other == 0 or names[other] not in HUES:
         return 0
     own = ids == i
-    tinted = np.median(sat[own]) >= 0.035 and hue_distance(np.median(hue[own]), HUES[names[other]]) <= 30.0
+    lit = np.median(val[own]) >= LIT_FACE_MIN_VALUE  # a face in the light is bright: a gray block in a bowl is not
+    tinted = lit and np.median(sat[own]) >= 0.035 and hue_distance(np.median(hue[own]), HUES[names[other]]) <= 30.0
     if tinted and border >= PART_BORDER_FRACTION:
         return other
     ring = cv2.dilate(own.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
