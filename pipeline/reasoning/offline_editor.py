@@ -23,7 +23,7 @@ from scipy.ndimage import distance_transform_edt, median_filter
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.articulation import HingeNotFound, find_hinge
 from pipeline.perception.depth import OfflineDepthEstimator, RelativeDepth
-from pipeline.perception.segmenter import SegmentationError, Segmenter, matches
+from pipeline.perception.segmenter import SegmentationError, Segmenter, apart_from, matches
 from pipeline.reasoning.checks import grow
 from pipeline.reasoning.instruction import Instruction, InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import ImageEditor
@@ -59,11 +59,14 @@ def _refuse(message: str) -> ProviderError:
     return ProviderError("refused", f"offline editor: {message}", raw=message)
 
 
-def _single(segmenter: Segmenter, rgb: np.ndarray, phrase: str) -> np.ndarray:
+def _single(segmenter: Segmenter, rgb: np.ndarray, phrase: str, other_than: np.ndarray | None = None) -> np.ndarray:
+    """The one object the phrase names (not the object of `other_than`: a reference is not its target)."""
     try:
         found = segmenter.segment(rgb, phrase)
     except SegmentationError as e:
         raise _refuse(str(e)) from None
+    if other_than is not None:
+        found = apart_from(found, other_than)
     if len(found) != 1:
         raise _refuse(f"'{phrase}' {matches(found)} in the current image (needs exactly one)")
     return found[0].mask
@@ -111,7 +114,7 @@ class OfflineEditor(ImageEditor):
         fx = footprint(px, plane)
         fy, exclude = None, grow(mask_x, 3)
         if instr.reference is not None:
-            mask_y = _single(self.segmenter, rgb, instr.reference)
+            mask_y = _single(self.segmenter, rgb, instr.reference, other_than=mask_x)
             py, _ = object_points(depth_m, K, mask_y)
             fy = footprint(py, plane)
             if instr.relation in ("on", "in"):  # the reference is where it goes, not in its way

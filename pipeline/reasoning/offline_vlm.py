@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, matches
+from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, apart_from, matches
 from pipeline.reasoning.instruction import InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import TextVLM
 from pipeline.reasoning.providers import ProviderError
@@ -43,7 +43,7 @@ class OfflineVLM(TextVLM):
         if instr.action != "place":
             return Verdict(True, (f"{instr.target} changed as asked ({instr.action}); no relation to check",))
         try:
-            found = self.segmenter.segment(request.rgb_init, instr.reference)
+            found = apart_from(self.segmenter.segment(request.rgb_init, instr.reference), request.mask_init)
         except SegmentationError as e:
             return Verdict(False, (f"reference '{instr.reference}' not segmentable: {e}",))
         if len(found) != 1:
