@@ -35,7 +35,7 @@ from pipeline.contact.gripper import GripperBoxes
 from pipeline.contact.held import held_box
 from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
 from pipeline.contact.sampling import Candidate, estimate_normals, grasp_candidates, push_candidates
-from pipeline.contact.symmetry import revolution_axis, turn_deg
+from pipeline.contact.symmetry import ball_centre, revolution_axis, turn_deg
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from safety.collision import CollisionWorld
 from safety.geometry import Primitive, transform_points
@@ -148,8 +148,16 @@ def plan_contacts(
 
 def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> list[np.ndarray]:
     """The object motion, then (a grasped body of revolution) the same goal turned about the body's own axis: by
-    the turn that keeps the vertical most vertical (a top grasp stays upright), then in SPIN_DEG steps."""
-    axis = revolution_axis(points) if mode == "grasp" else None
+    the turn that keeps the vertical most vertical (a top grasp stays upright), then in SPIN_DEG steps; for a
+    grasped ball only its centre's move (the registration's turn of a ball is arbitrary)."""
+    if mode != "grasp":
+        return [T_motion]
+    centre = ball_centre(points)
+    if centre is not None:  # no turn of a ball shows: its goal is where its centre goes, carried without a turn
+        T = np.eye(4)
+        T[:3, 3] = T_motion[:3, :3] @ centre + T_motion[:3, 3] - centre
+        return [T]
+    axis = revolution_axis(points)
     if axis is None:
         return [T_motion]
     turns = np.radians(np.arange(-180.0, 180.0, UPRIGHT_STEP_DEG))

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 from contact_helpers import clouds, move
+from scipy.spatial.transform import Rotation
 from test_contact_planner import _box_cloud, _translation
 
 from pipeline.contact.gripper import GripperBoxes
@@ -145,3 +146,22 @@ def test_both_wrists_are_plans(robot):
         if len(twins) == 2:
             a, b = twins
             np.testing.assert_allclose(a.T_contact @ np.diag([-1.0, -1.0, 1.0, 1.0]), b.T_contact, atol=1e-9)
+
+
+def test_a_ball_is_carried_without_the_turn_its_registration_made_up(robot):
+    # no turn of a ball shows, so the grounded motion's turn is arbitrary; tilted 60 deg it would put a top grasp
+    # on its side at the goal: the plan carries the ball's centre to where the motion puts it, turning nothing
+    rng = np.random.default_rng(4)
+    d = rng.normal(size=(3000, 3))
+    d[:, 2] = np.abs(d[:, 2])  # the upper half the camera sees
+    centre = np.array([0.45, -0.1, 0.03])
+    ball = centre + 0.03 * d / np.linalg.norm(d, axis=1, keepdims=True)
+    motion = np.eye(4)  # turned 60 deg about its centre, then moved 5 cm x 20 cm
+    motion[:3, :3] = Rotation.from_euler("x", 60, degrees=True).as_matrix()
+    motion[:3, 3] = centre + np.array([0.05, 0.2, 0.0]) - motion[:3, :3] @ centre
+    result = plan_contacts(ball, np.zeros((0, 3)), motion, robot, config=PLACE)
+    assert result.ok, result.reason
+    goal_centre = motion[:3, :3] @ centre + motion[:3, 3]
+    for plan in result.plans:
+        np.testing.assert_allclose(plan.T_motion[:3, :3], np.eye(3), atol=1e-12)
+        np.testing.assert_allclose(plan.T_motion[:3, :3] @ centre + plan.T_motion[:3, 3], goal_centre, atol=1e-3)
