@@ -154,7 +154,9 @@ class PipelineStages:
         profile, frame = ctx.profile, ctx.frame0
         robot = RobotModel()
         q_start = ctx.devices.arm.read_state().q
-        clouds = scene_clouds(frame, ctx.goal.mask_init, robot, q_start, workspace=profile.safety.workspace)
+        clouds = ctx.clouds = scene_clouds(
+            frame, ctx.goal.mask_init, robot, q_start, workspace=profile.safety.workspace
+        )
         chain = ManipulationChain(
             robot,
             robot_config=profile.robot,
@@ -232,6 +234,7 @@ class PipelineStages:
                 report = executor.execute(approved)
             except ExecutionRefused as e:
                 raise StageError(f"{name} phase refused by the executor: {e}") from e
+            ctx.executed.append((name, report))
             reports.append(PhaseRecord.of(name, report))
             ctx.record.summary.execution = list(reports)
             if report.status != "completed":
