@@ -26,7 +26,12 @@ REACH_TOL_M, REACH_TOL_RAD = 1e-3, 1e-2  # the contact's joints must put the TCP
 
 
 class ManipulationRefused(RuntimeError):
-    """A phase of the manipulation cannot be planned or approved; the message names the piece and why."""
+    """A phase of the manipulation cannot be planned or approved; the message names the piece and why. searched:
+    a randomised search found no path (another attempt may); else the refusal is the same on every attempt."""
+
+    def __init__(self, message: str, searched: bool = False) -> None:
+        super().__init__(message)
+        self.searched = searched
 
 
 class ManipulationChain:
@@ -53,6 +58,8 @@ class ManipulationChain:
         self.timer = TrajectoryTimer(
             self.limits, self.dt, robot.joint_names, robot.tcp_positions, safety.max_tcp_speed_m_s
         )
+        push_speed = min(safety.max_tcp_speed_m_s, motion.push_tcp_speed_m_s)
+        self.push_timer = TrajectoryTimer(self.limits, self.dt, robot.joint_names, robot.tcp_positions, push_speed)
         self.q0 = np.asarray(q_start, dtype=np.float64)
         home = robot_config.home_q_rad
         self.home = np.asarray(home if home is not None else robot.spec.home_q, dtype=np.float64)
@@ -96,19 +103,26 @@ class ManipulationChain:
         try:
             return planner.plan(qa, qb).waypoints
         except PlanningError as e:
-            raise ManipulationRefused(f"{what}: {e}") from e
+            raise ManipulationRefused(f"{what}: {e}", searched=True) from e
 
     def approved(
-        self, steps: list, world: CollisionWorld, q_start: np.ndarray, what: str, free_move: bool = False
+        self,
+        steps: list,
+        world: CollisionWorld,
+        q_start: np.ndarray,
+        what: str,
+        free_move: bool = False,
+        pushing: bool = False,
     ) -> ApprovedTrajectory:
         """Timed and approved by the gate. A free move (no contact in it) may blend through its waypoints, its
         corners cut where that stays clear and kept only where the gate accepts the bent path; everything else
-        rests at each waypoint, on the checked lines."""
+        rests at each waypoint, on the checked lines. A push is timed at the profile's push speed."""
         blend = free_move and self.motion.blend_free_moves
         if blend:  # only paths with corners (a direct move has none, and cutting builds an inflated world)
             steps = [self.planner(world).smooth(s) if isinstance(s, np.ndarray) and len(s) > 2 else s for s in steps]
         try:
-            trajectory = self.timer.time(steps, blend=blend, check=gate_check(world, q_start) if blend else None)
+            timer = self.push_timer if pushing else self.timer
+            trajectory = timer.time(steps, blend=blend, check=gate_check(world, q_start) if blend else None)
             return approve(trajectory, world, q_current=q_start)
         except TimingError as e:
             raise ManipulationRefused(f"{what}: timing failed: {e}") from e

@@ -10,13 +10,14 @@ from __future__ import annotations
 import logging
 import time
 import uuid
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 import numpy as np
 
 from drivers.description import load_robot_spec
 from drivers.types import RGBDFrame
+from motion.clock import Clock
 from motion.executor import ExecutionRefused, Executor, ExecutorConfig
 from motion.limits import MotionLimits
 from motion.manipulation.chain import ManipulationChain, ManipulationRefused
@@ -31,24 +32,34 @@ from pipeline.perception.segmenter import Segmenter
 from pipeline.reasoning.factory import build_reasoner, build_segmenter
 from pipeline.reasoning.reasoner import Reasoner, synthesize
 from pipeline.reasoning.types import ReasoningError
+from runtime.devices import Devices
 from runtime.messaging.messages import PlanSummary
 from runtime.run.contact import contact_plans
 from runtime.run.context import RunContext, StageError
 from runtime.run.overlay import draw_tcp_poses
-from runtime.run.summary import MotionRecord, PhaseRecord, PlanningRecord, ReasoningRecord, Verification
+from runtime.run.second_look import look_again
+from runtime.run.summary import (
+    LookRecord,
+    MotionRecord,
+    PhaseRecord,
+    PlanningRecord,
+    ReasoningRecord,
+    Verification,
+)
 from runtime.run.verification import verify_run
 from safety.robot_model import RobotModel
 
 log = logging.getLogger(__name__)
 
 MAX_CONTACTS = 3  # ranked contact decisions tried before planning gives up
-PLAN_ATTEMPTS = 2  # planning attempts per contact (OMPL is randomised)
+PLAN_ATTEMPTS = 2  # planning attempts per contact when a path search failed (OMPL is randomised)
 SETTLE_S = 0.3  # after the last phase, before the capture that verifies: the object comes to rest
 ABORT_REST_S = 2.0  # an operator abort: how long the executor may take to come to rest on its path
 
 
 class CaptureListener(Protocol):
-    """Told of every capture a run takes ("capture" before, "after" for verification), right after it."""
+    """Told of every capture a run takes ("capture" before, "look1", ... right before moving, "after" for
+    verification), right after it."""
 
     def on_capture(self, name: str, ctx: RunContext) -> None: ...
 
@@ -56,8 +67,13 @@ class CaptureListener(Protocol):
 class PipelineStages:
     """Stateless between runs except for loaded backends (built once, on first use)."""
 
-    def __init__(self, listeners: Sequence[CaptureListener] = ()) -> None:
+    def __init__(
+        self, listeners: Sequence[CaptureListener] = (), clock: Callable[[Devices], Clock] | None = None
+    ) -> None:
+        """clock: the executor's clock for the run's devices (default the wall clock); a stepped simulator's
+        (drivers.sim.SteppedClock) makes a run independent of the machine's load, for benches."""
         self.listeners = tuple(listeners)
+        self.clock = clock
         self._reasoner: Reasoner | None = None
         self._features: FeatureExtractor | None = None
         self._segmenter: Segmenter | None = None
@@ -88,7 +104,8 @@ class PipelineStages:
             except RuntimeError as e:  # missing API keys, unusable model settings: the message names them
                 raise StageError(str(e)) from e
         try:
-            goal = self._reasoner.run(ctx.frame0, ctx.instruction, record_dir=str(ctx.record.dir / "reasoning"))
+            folder = "reasoning" if ctx.basis == "capture" else f"reasoning_{ctx.basis}"  # again after a change
+            goal = self._reasoner.run(ctx.frame0, ctx.instruction, record_dir=str(ctx.record.dir / folder))
         except ReasoningError as e:
             raise StageError(str(e)) from e
         ctx.goal = goal
@@ -150,13 +167,21 @@ class PipelineStages:
             target=clouds.target,
         )
         refusals = []
-        contacts = self.contacts(ctx, clouds, robot, q_start)[:MAX_CONTACTS]
-        for contact in [c for c in contacts for _ in range(PLAN_ATTEMPTS)]:  # OMPL may find a path on a retry
-            try:
-                manipulation = plan_manipulation(chain, contact)
+        manipulation = None
+        for contact in self.contacts(ctx, clouds, robot, q_start)[:MAX_CONTACTS]:
+            for attempt in range(1, PLAN_ATTEMPTS + 1):
+                try:
+                    manipulation = plan_manipulation(chain, contact)
+                    break
+                except ManipulationRefused as e:
+                    refusal = f"{contact.source}: {e}" + (f" ({attempt} attempts)" if attempt > 1 else "")
+                    if attempt > 1:
+                        refusals.pop()
+                    refusals.append(refusal)
+                    if not e.searched:  # the same on every attempt: only a path search may find one next time
+                        break
+            if manipulation is not None:
                 break
-            except ManipulationRefused as e:
-                refusals.append(f"{contact.source}: {e}")
         else:
             ctx.record.summary.planning = PlanningRecord(refusals=refusals)
             raise StageError("no contact could be planned:\n  " + "\n  ".join(refusals))
@@ -182,11 +207,24 @@ class PipelineStages:
             },
         )
 
+    # -- the second look ----------------------------------------------------------------------------------
+    def recheck(self, ctx: RunContext) -> LookRecord:
+        name = f"look{len(ctx.record.summary.second_look) + 1}"
+        look = self._capture(ctx, name)
+        return look_again(ctx, look, name, self._segmenter_backend(ctx), self._features_backend(ctx))
+
+    def _segmenter_backend(self, ctx: RunContext) -> Segmenter:
+        if self._segmenter is None:
+            self._segmenter = build_segmenter(ctx.profile.pipeline)
+        return self._segmenter
+
     # -- execution ----------------------------------------------------------------------------------------
     def execute(self, ctx: RunContext) -> None:
         dev, profile, manipulation = ctx.devices, ctx.profile, ctx.manipulation
         limits = MotionLimits.from_config(profile.safety, load_robot_spec())
-        executor = Executor(dev.arm, ExecutorConfig.from_configs(profile.robot, profile.safety), limits, dev.gripper)
+        clock = self.clock(dev) if self.clock is not None else None
+        config = ExecutorConfig.from_configs(profile.robot, profile.safety)
+        executor = Executor(dev.arm, config, limits, dev.gripper, clock=clock)
         ctx.executor = executor
         reports: list[PhaseRecord] = []
         for name, approved in zip(manipulation.phase_names, manipulation.phases, strict=True):
@@ -221,11 +259,13 @@ class PipelineStages:
 
     # -- verification -------------------------------------------------------------------------------------
     def verify(self, ctx: RunContext) -> Verification:
-        time.sleep(SETTLE_S)  # the object comes to rest after the release (physical time: nothing to wait on)
+        if self.clock is None:
+            time.sleep(SETTLE_S)  # the object comes to rest after the release (physical time: nothing to wait on)
+        else:
+            clock = self.clock(ctx.devices)
+            clock.sleep_until(clock.now() + SETTLE_S)
         after = ctx.frame1 = self._capture(ctx, "after")
-        if self._segmenter is None:
-            self._segmenter = build_segmenter(ctx.profile.pipeline)
-        return verify_run(ctx, after, self._segmenter, self._features_backend(ctx))
+        return verify_run(ctx, after, self._segmenter_backend(ctx), self._features_backend(ctx))
 
 
 def _mask_picture(rgb: np.ndarray, mask_init: np.ndarray, mask_goal: np.ndarray) -> np.ndarray:
