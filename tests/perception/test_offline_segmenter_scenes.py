@@ -63,6 +63,23 @@ def test_a_lid_is_found_open_and_shut_whatever_its_colour(sim_profile_with, tmp_
             assert iou(lids[0].mask, camera.body_mask("box_lid")) > 0.6, f"shut={shut}"
 
 
+def test_the_lid_of_a_box_is_the_open_chests_beside_a_plain_box_of_its_colour(sim_profile_with, tmp_path):
+    """'the box' names both a chest and a block of its colour; the lid is the chest's, seen open."""
+    chest = {"name": "box", "kind": "lidded_box", "size_m": [0.12, 0.15, 0.07], "color": "pink", "xy_m": [0.5, 0.1]}
+    chest |= {"lid_open_deg": 95.0}
+    block = {"name": "block", "kind": "box", "size_m": [0.05, 0.05, 0.05], "color": "pink", "xy_m": [0.45, -0.15]}
+    path = tmp_path / "lid.yaml"
+    scene = {"name": "lid", "objects": [chest, block], "randomise": {"xy_jitter_m": 0.0}}
+    path.write_text(yaml.safe_dump(scene))
+    _, camera = view(sim_profile_with, str(path))
+    with camera:
+        rgb = camera.read().rgb
+        assert len(OfflineSegmenter().segment(rgb, "the pink box")) == 2
+        lids = OfflineSegmenter().segment(rgb, "the lid of the pink box")
+        assert len(lids) == 1, [d.label for d in lids]
+        assert iou(lids[0].mask, camera.body_mask("box_lid")) > 0.6
+
+
 def test_phrases_of_generated_scenes_find_exactly_their_object(sim_profile_with):
     """Held-out seeds (the segmenter's cues were set on seeds 0-99): at least 90 % of all phrases that name one
     object in a scene (colour and noun, shade words, the noun alone) find exactly that object."""
