@@ -146,6 +146,8 @@ class OfflineSegmenter(Segmenter):
             objects = [i for i in boxes if i.region.area >= CHEST_AREA_RATIO * largest]  # a chest outsizes blocks
         if want.part is None:
             return [_detection(i, want, i.region.mask) for i in objects]
+        if any(i.kind == "lidded_box" for i in objects):  # a lid is a chest's part: a box seen open has one,
+            objects = [i for i in objects if i.kind == "lidded_box"]  # a plain-looking box only when none is open
         out = []
         for whole in objects:
             lid = _lid(rgb, whole, instances, want)

@@ -32,6 +32,8 @@ class Cues:
     end_width: float  # width near the narrower end / widest width, along the long axis
     edge_density: float  # edges inside the region per sqrt(area)
     light_plate: float  # fraction of neutral light pixels (a scale's weighing plate)
+    body_ellipse_iou: float  # ellipse_iou of the region opened by a disc a quarter of its width (thin parts cut)
+    body_share: float  # the opened region's area / the region's
 
 
 def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
@@ -60,7 +62,26 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
         end_width=_end_width(u, v),
         edge_density=float((edges & inner).sum() / max(np.sqrt(area), 1.0)),
         light_plate=float(((sat[mask] < 0.06) & (val[mask] > 0.75)).mean()),
+        **_body(m, np.ptp(u) + 1, np.ptp(v) + 1, area),
     )
+
+
+def _body(m: np.ndarray, width: int, height: int, area: float) -> dict[str, float]:
+    """The region with its thin parts cut off (an opening by a disc a quarter of its smaller extent): how well an
+    ellipse fits what is left, and how much is left."""
+    k = max(3, int(0.25 * min(width, height)) | 1)
+    body = cv2.morphologyEx(m, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+    contours, _ = cv2.findContours(body, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    outline = max(contours, key=cv2.contourArea) if contours else None
+    if outline is None or len(outline) < 5:
+        return {"body_ellipse_iou": 0.0, "body_share": 0.0}
+    fitted = np.zeros_like(body)
+    cv2.ellipse(fitted, cv2.fitEllipse(outline), 1, -1)
+    inside, fit = body.astype(bool), fitted.astype(bool)
+    return {
+        "body_ellipse_iou": float((inside & fit).sum() / max((inside | fit).sum(), 1)),
+        "body_share": float(inside.sum() / max(area, 1.0)),
+    }
 
 
 def _end_width(u: np.ndarray, v: np.ndarray) -> float:
@@ -92,6 +113,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     plate_on_top = _within(c.light_plate, 0.15, 1.0, 0.1) if colour != "white" else 0.0
     body = _within(c.end_width, 0.8, 1.0, 0.1)  # as wide at its ends as in its middle
     necked = _within(c.end_width, 0.0, 0.66, 0.1) * _within(c.end_width, 0.32, 1.0, 0.1)
+    round_body = _within(c.body_ellipse_iou, 0.94, 1.0, 0.02)  # an ellipse once thin parts are cut off
     return {
         # a ball: round and smooth; an edited goal re-projects its seen half, which stretches it upward a little
         "sphere": _within(c.elongation, 1.0, 1.2, 0.08)
@@ -105,7 +127,11 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         "plate": _within(c.aspect, 1.08, 1.5, 0.08)
         * _within(c.ellipse_iou, 0.96, 1.0, 0.03)
         * _within(c.edge_density, 0.0, 2.6, 0.6),
-        "pan": _within(c.end_width, 0.0, 0.3, 0.1) * _within(c.ellipse_iou, 0.0, 0.8, 0.08),
+        # a pan: a narrow handle at one end, or a round body with a thin part cut off (a handle seen end-on)
+        "pan": max(
+            _within(c.end_width, 0.0, 0.3, 0.1) * _within(c.ellipse_iou, 0.0, 0.8, 0.08),
+            round_body * _within(c.body_share, 0.0, 0.96, 0.02) * _within(c.ellipse_iou, 0.0, 0.85, 0.04),
+        ),
         "platform": plate_on_top * _within(c.corners, 0.0, 6.0, 1.0) * (1.0 - 0.5 * round_outline),
         "box": _within(c.corners, 0.0, 6.5, 2.5)
         * _within(c.ellipse_iou, 0.0, 0.94, 0.03)
@@ -113,7 +139,10 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * _within(c.rect_fill, 0.8, 1.0, 0.08)
         * _within(c.elongation, 1.0, 2.0, 0.4)
         * (1.0 - plate_on_top),
-        "lidded_box": hollow * _within(c.corners, 0.0, 6.5, 1.5) * _within(c.ellipse_iou, 0.0, 0.9, 0.04),
+        "lidded_box": hollow
+        * _within(c.corners, 0.0, 6.5, 1.5)
+        * _within(c.ellipse_iou, 0.0, 0.9, 0.04)
+        * (1.0 - round_body),
         "cylinder": max(
             _within(c.aspect, 0.45, 0.9, 0.1) * round_outline,  # upright: rounded ends
             _within(c.elongation, 1.8, 3.6, 0.3) * _within(c.rect_fill, 0.88, 1.0, 0.05),  # lying

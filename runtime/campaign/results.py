@@ -21,7 +21,13 @@ RESULT_FILE = "result.json"
 Status = Literal["DONE", "FAILED", "ESTOPPED", "REFUSED"]
 # how a run ends when this machine, not the run, failed: the simulated robot's state report or the e-stop node's
 # heartbeat starved by other work (the real arm and pendant run on their own computers), a capture past its budget
-LOAD_FAULTS = ("stale joint state", "the state report stalled", "no e-stop node heartbeat", "CAPTURING took too long")
+LOAD_FAULTS = (
+    "stale joint state",
+    "the state report stalled",
+    "no e-stop node heartbeat",  # the deadman while moving
+    "no fresh e-stop heartbeat",  # the check before moving
+    "CAPTURING took too long",
+)
 
 
 def is_load_fault(status: str, reason: str) -> bool:

@@ -30,7 +30,7 @@ from pipeline.perception.scene_change import ChangedRegion, depth_changes
 from pipeline.perception.segmenter import Segmenter
 from runtime.run.context import RunContext, StageError
 from runtime.run.summary import ChangeRecord, LookRecord, MotionRecord
-from runtime.run.verification import CAMERA_STILL_DEG, CAMERA_STILL_MM, camera_moved
+from runtime.run.verification import CAMERA_STILL_DEG, CAMERA_STILL_MM, camera_moved, find_target_again
 from safety.geometry import transform_points
 
 TARGET_ZONE_PX = 7  # a changed region this close to the target's pixels (then or now) is the target's
@@ -83,7 +83,7 @@ def look_again(
 
     if not regions:
         return record("still", f"nothing moved since {basis} (depth within {cfg.depth_change_m * 1000:.0f} mm)")
-    detections = segmenter.segment(look.rgb, goal.target)
+    detections = find_target_again(segmenter, look.rgb, goal.target, before.rgb, goal.mask_init)
     if len(detections) != 1:
         changes = [_change(r, "scene", look) for r in regions]
         _rebase_capture(ctx, look, name)

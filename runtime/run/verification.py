@@ -9,7 +9,8 @@ from drivers.types import RGBDFrame
 from pipeline.grounding.achieved import measure_achieved
 from pipeline.grounding.compare import compare, rotation_deg
 from pipeline.perception.features import FeatureExtractor
-from pipeline.perception.segmenter import Segmenter
+from pipeline.perception.segmenter import Detection, Segmenter
+from pipeline.reasoning.checks import like_the_target
 from runtime.run.context import RunContext
 from runtime.run.summary import AchievedRecord, MotionRecord, Verification
 
@@ -19,6 +20,15 @@ CAMERA_STILL_MM, CAMERA_STILL_DEG = 2.0, 0.2  # verification needs both captures
 def camera_moved(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
     """(mm, deg) between two camera poses."""
     return 1000 * float(np.linalg.norm(T_a[:3, 3] - T_b[:3, 3])), rotation_deg(T_a[:3, :3].T @ T_b[:3, :3])
+
+
+def find_target_again(
+    segmenter: Segmenter, rgb: np.ndarray, target: str, rgb_before: np.ndarray, mask_before: np.ndarray
+) -> list[Detection]:
+    """The regions the target phrase matches in a later image; of several, the only one of the target's size and
+    colour in the planning capture, as the goal image's is taken (a cube seen from another side may no longer
+    look like a cube, and its colour word then matches a bowl of that colour as well)."""
+    return like_the_target(segmenter.segment(rgb, target), rgb_before, mask_before, rgb)
 
 
 def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features: FeatureExtractor) -> Verification:
@@ -31,7 +41,7 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
             reason=f"the camera moved {moved_mm:.0f} mm / {moved_deg:.1f} deg between the captures: verification "
             "compares two views from one pose (a camera on the arm must capture again where it first did)",
         )
-    detections = segmenter.segment(after.rgb, goal.target)
+    detections = find_target_again(segmenter, after.rgb, goal.target, before.rgb, goal.mask_init)
     if len(detections) != 1:
         return Verification(ok=False, reason=f"target '{goal.target}' found {len(detections)} times after execution")
     mask_after = detections[0].mask

@@ -12,7 +12,7 @@ from rich.console import Console
 
 from runtime.campaign.campaign import CampaignError, CampaignSpec, finished, read_outcome, run_campaign
 from runtime.campaign.cases import GENERATED, GENERATED_ALL, TASKS, Case, expand, sim_seed
-from runtime.campaign.results import RESULT_FILE, CampaignTable, CaseResult
+from runtime.campaign.results import RESULT_FILE, CampaignTable, CaseResult, is_load_fault
 from runtime.campaign.truth import judge
 from runtime.campaign.worker import unpack
 from runtime.run.summary import RunSummary, SimTruthRecord, TransitionRecord
@@ -124,6 +124,8 @@ def test_a_run_this_machines_load_stopped_is_run_again_with_the_first_record_kep
     assert CaseResult.read(run_dir) == result and [p.name for p in tmp_path.iterdir()] == [run_dir.name]
     table = CampaignTable.of([CaseResult.of(case(), starved), result])
     assert table.total.load_faults == 1
+    late = "no fresh e-stop heartbeat (last 1.91 s ago, limit 1.0 s): not moving"
+    assert is_load_fault("FAILED", late) and not is_load_fault("FAILED", "plan: no contact could be planned")
 
 
 def test_a_stepped_campaign_runs_without_real_time_physics():
