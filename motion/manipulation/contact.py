@@ -37,6 +37,9 @@ class Contact(Protocol):
     def open_width_m(self) -> float: ...  # finger gap on the approach and down to the contact
 
     @property
+    def release_width_m(self) -> float: ...  # grasp: finger gap opened to let go (at least open_width_m)
+
+    @property
     def q_pre(self) -> np.ndarray: ...  # joints at T_pre
 
     @property

@@ -6,9 +6,10 @@ the sequence is cut where it changes and each phase is approved against its own 
 cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
   grasp:  approach (free path to the pre-grasp pose; the object is an obstacle) -> grasp (straight in, close,
           straight up) -> carry (object attached to the TCP: free path above the place pose, straight down to the
-          release, open as wide as the approach did) -> retreat (back along the approach axis, else straight up)
-          -> home (the placed object is an obstacle). The release is the contact's: just above the goal, or higher
-          where the fingers would touch the scene lower (a container's walls), the object dropping the rest.
+          release, open to the contact's release width) -> retreat (back along the approach axis, else straight
+          up) -> home (the placed object is an obstacle). The release is the contact's: just above the goal, or
+          higher where the fingers would touch the scene lower (a container's walls), the object dropping the
+          rest, the fingers opened as wide as the scene there lets (at least as the approach opened them).
   push:   approach (free path, close the fingers) -> push (straight in, push along the motion at
           motion.push_tcp_speed_m_s, back off along the tilted hand, else straight up) -> home
   hinge:  as push, the push following the via poses along the hinged part's arc (a Cartesian line between each
@@ -92,12 +93,13 @@ def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     q_above = chain.checked(carry_planner, q_above, T_above, "pose above the place")
     to_above = chain.free(carry_planner, lift[-1], q_above, "carry path")
     place = chain.line(carry_planner, q_above, T_place, "descent to the place pose")
-    # let go only as wide as the approach opened: in a container, beside a neighbour, wider fingers may touch
-    release = GripperAction("open", OPEN_S, contact.open_width_m)
+    # let go as wide as contact planning found clear there: in a container, beside a neighbour, no wider than the
+    # approach; in the open wide, so the fingers leave the object without dragging it
+    release = GripperAction("open", OPEN_S, contact.release_width_m)
     carry = chain.approved([to_above, place, release], carry_world, lift[-1], "carry")
 
-    released = chain.world(contact.open_width_m)
-    after = _after(chain, contact, contact.open_width_m)
+    released = chain.world(contact.release_width_m)
+    after = _after(chain, contact, contact.release_width_m)
     up = _retreat(chain, chain.planner(released), place[-1], T_place, after, "retreat", (T_above,))
     retreat = chain.approved([up], released, place[-1], "retreat")
     home = _home(chain, after, up[-1])

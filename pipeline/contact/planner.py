@@ -52,6 +52,8 @@ SPIN_DEG = (45.0, -45.0, 90.0, -90.0, 135.0, -135.0, 180.0)  # turns of a body o
 UPRIGHT_STEP_DEG = 5.0  # the search for the turn about a body's axis that keeps a top grasp upright
 DROP_STEP_M = 0.01  # release heights tried above the lowest
 CELL_MARGIN_M = 0.009  # the gate sees the scene's points as 1 cm cells: a release this much clearer passes it
+GROUNDED_TURN_DEG = 1.0  # a plan's motion this close to the grounded one realises it (no turn about an axis)
+RELEASE_WIDTH_STEP_M = 0.005  # release openings tried from the gripper's widest down to the approach's
 
 
 def plan_contacts(
@@ -140,9 +142,18 @@ def plan_contacts(
             plans = plans[: cfg.keep]
             break
     rejected["not checked for reachability (enough plans)"] += max(0, len(geometric) - cfg.ik_candidates)
-    # the object let go lowest first; then the grounded motion, then the least turn about a body's axis: the turn
-    # is not in the images, but the verification's registration may still see part of it
-    plans.sort(key=lambda p: (round(_drop(p, cfg) * 100), round(turn_deg(p.T_motion, T_base_motion)), -p.score))
+    # the object let go lowest first; then the grounded motion (the verification's registration may see part of a
+    # turn about a body's axis), then the best grasp, the least turn breaking ties: a contact's turn is the first
+    # of those tried (_turns_to_try) its wrist reaches, not a quality; ranked by it, a slanted grasp that turned a
+    # stood-up bottle in the fingers came before the square ones
+    plans.sort(
+        key=lambda p: (
+            round(_drop(p, cfg) * 100),
+            turn_deg(p.T_motion, T_base_motion) > GROUNDED_TURN_DEG,
+            -round(p.score, 3),
+            round(turn_deg(p.T_motion, T_base_motion)),
+        )
+    )
     return ContactResult(plans, {k: v for k, v in rejected.items() if v}, total)
 
 
@@ -163,7 +174,7 @@ def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> lis
     turns = np.radians(np.arange(-180.0, 180.0, UPRIGHT_STEP_DEG))
     upright = max(turns, key=lambda a: (T_motion @ axis.turn(a))[2, 2])
     spins = [T_motion @ axis.turn(a) for a in (upright, *np.radians(SPIN_DEG))]
-    return [T_motion, *(M for M in spins if turn_deg(M, T_motion) > 1.0)]
+    return [T_motion, *(M for M in spins if turn_deg(M, T_motion) > GROUNDED_TURN_DEG)]
 
 
 def _contact_reason(
@@ -256,6 +267,18 @@ class _GoalCheck:
             if not why:
                 return tuple(h + float(extra) for h in lifts), ""
         return (), f"gripper {why} at every release height"
+
+    def release_width(self, c: Candidate, T_release: np.ndarray, free) -> float:
+        """A grasp's widest finger gap, from the gripper's widest down to the approach's opening, whose fingers at
+        the release clear the table and the scene by the gate's margin, with joints `free` accepts (None: any); the
+        approach's opening when none wider does (ending() checked it), and a push's."""
+        narrowest = _open_width(c, self.cfg, self.robot)
+        if c.mode != "grasp":
+            return narrowest
+        for w in np.arange(self.robot.spec.gripper.max_width_m, narrowest, -RELEASE_WIDTH_STEP_M):
+            if not self._clear(T_release, (float(w),), self.releasing) and (free is None or free(float(w))):
+                return float(w)
+        return narrowest
 
     def least_drop(self, c: Candidate, motions: list[np.ndarray]) -> tuple[float, str]:
         """(the least height beyond place_lifts_m[0] the object is let go from under any motion, "") or (0, the
@@ -376,6 +399,10 @@ class _Acceptance:
             self._carrying = CollisionWorld(w.robot, w.config, obstacles=list(w.obstacles), points=w.points, held=held)
         return not any(self._carrying.in_collision(q, w) for w in (self.c.object_width_m, self.width))
 
+    def released(self, q: np.ndarray):
+        """Which finger gaps the joints q (the release's) accept opened in the gate's scene (None: any)."""
+        return None if self.world is None else lambda w: not self.world.in_collision(q, w)
+
     def of(self, what: str):
         return None if self.world is None else getattr(self, what)
 
@@ -409,7 +436,9 @@ def _twin_plan(
             continue
         goal, why = _goal_ik(robot, T_goal, lifts, qs[-1], accepts)
         if goal:
-            return _plan(c, cfg, robot, T_pre, M, qs, goal, placing)
+            release = goal[1] if len(goal) > 1 else goal[0]  # (pose, joints) where the fingers let go
+            width = goal_check.release_width(c, release[0], accepts.released(release[1]))
+            return _plan(c, cfg, robot, T_pre, M, qs, goal, placing, width)
         first = first or why
     raise _Unreachable(first or "goal pose out of reach")
 
@@ -457,8 +486,10 @@ def _plan(
     qs: list[np.ndarray],
     goal: list[tuple[np.ndarray, np.ndarray]],
     placing: _Placing,
+    release_width: float,
 ) -> ContactPlan:
-    """qs: the pre-contact, contact and arc joints; goal: (pose, joints) at the goal and the place lifts."""
+    """qs: the pre-contact, contact and arc joints; goal: (pose, joints) at the goal and the place lifts;
+    release_width: a grasp's finger gap to let go with (a push's: its opening)."""
     (T_goal, q_goal), *place = goal
     margin = min(float(np.min(np.minimum(q - robot.lower, robot.upper - q))) for q in [*qs, q_goal])
     reach = float(np.clip(margin / 0.5, 0.0, 1.0))
@@ -476,6 +507,7 @@ def _plan(
         T_motion=T_motion,
         width_m=width,
         open_width_m=_open_width(c, cfg, robot),
+        release_width_m=release_width,
         object_width_m=c.object_width_m,
         q_pre=q_pre,
         q_contact=q_contact,

@@ -81,6 +81,10 @@ class ContactPlan:
     T_motion: np.ndarray
     width_m: float  # finger gap to command at contact (grasp: below the object's width; push: closed)
     open_width_m: float  # finger gap on the approach and at the pre-contact and contact poses (IK checked at it)
+    # grasp: finger gap opened to let go: as wide as the scene at the release allows, at least open_width_m (the
+    # measured width a partial cloud gives is often below the object's, and fingers left touching it drag it along
+    # on the way out); push: open_width_m
+    release_width_m: float
     object_width_m: float  # measured gap the object needs between the fingers (0 for pushes)
     q_pre: np.ndarray
     q_contact: np.ndarray

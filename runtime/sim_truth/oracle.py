@@ -85,6 +85,7 @@ def ground_truth_grasp(
         T_motion=T_motion,
         width_m=width,
         open_width_m=robot.spec.gripper.max_width_m,
+        release_width_m=robot.spec.gripper.max_width_m,
         object_width_m=min(size[:2]),
         q_pre=q_pre,
         q_contact=q_contact,

@@ -50,7 +50,8 @@ def test_a_cube_is_let_go_above_a_tall_bowl_with_the_fingers_clear_of_its_walls(
         drop = release[2, 3] - plan.T_goal[2, 3]
         assert 0.025 < drop <= 0.025 + PLACE.max_drop_m + 1e-9  # let go higher than just above the goal ...
         assert above[2, 3] - release[2, 3] == pytest.approx(0.10)
-        for width in (plan.object_width_m, plan.open_width_m):  # ... where the fingers clear the walls
+        assert plan.release_width_m >= plan.open_width_m
+        for width in (plan.object_width_m, plan.open_width_m, plan.release_width_m):  # ... the fingers clear the walls
             assert not boxes.hits_points(release, width, bowl)
         carrying = CollisionWorld(robot, points=bowl, held=plan.held)  # the carry's world, the cube in the hand
         for q in plan.q_place:
