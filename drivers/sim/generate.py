@@ -29,6 +29,7 @@ from drivers.sim.scene import (
     Scene,
     SceneError,
     SceneObject,
+    expand_groups,
     load_scene,
     place,
     placed_footprint,
@@ -387,7 +388,7 @@ def scene_for(sim: SimConfig) -> Scene:
 
 def check_scene(sim: SimConfig) -> Scene:
     """The profile's scene, loaded and placed as SimWorld will (no simulator): SceneError names what is wrong."""
-    scene = scene_for(sim)
+    scene = expand_groups(scene_for(sim), sim.seed)
     place(scene, sim.seed)
     return scene
 
