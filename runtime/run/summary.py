@@ -128,10 +128,33 @@ class AchievedRecord(Section):
     ball_centre_shift_m: list[float] | None = None
 
 
+class GroupCountRecord(Section):
+    """A sweep's verification: the parts counted inside the container after it, of those seen before."""
+
+    total: int
+    inside: int
+    outside: int
+    required: int
+
+
 class Verification(Section):
     ok: bool
     reason: str
     comparison: Comparison | None = None  # absent when no achieved motion could be compared
+    group_count: GroupCountRecord | None = None  # a sweep's parts counted in the container
+
+
+class TaskTruthRecord(Section):
+    """What the task itself asks, judged from the simulator: a sweep's parts inside the container's floor, an
+    object lifted clear of everything but the fingers, a support left empty with the object on the table."""
+
+    action: str  # sweep, lift, take_off
+    done: bool  # the task is done by the simulator's measure
+    detail: str
+    parts_inside: int | None = None  # sweep
+    parts_total: int | None = None
+    lifted_m: float | None = None  # lift, take_off: how far the object's lowest point is above the table
+    touching: list[str] = Field(default_factory=list)  # what the object touches (besides the fingers)
 
 
 class SimTruthRecord(Section):
@@ -141,6 +164,7 @@ class SimTruthRecord(Section):
     hinge_deg: dict[str, float]  # each hinge joint's angle after the run
     target: str | None = None  # a whole object that was moved: the one that moved most
     target_goal_error_m: float | None = None  # how far its centre ended from where the goal motion puts it
+    task: TaskTruthRecord | None = None  # the truth of a sweep, a lift or a take-off
 
 
 class TransitionRecord(Section):

@@ -12,6 +12,7 @@ from pipeline.perception.features import FeatureExtractor
 from pipeline.perception.segmenter import Segmenter
 from runtime.run.context import RunContext
 from runtime.run.summary import AchievedRecord, MotionRecord, Verification
+from runtime.run.verify_group import verify_group
 
 CAMERA_STILL_MM, CAMERA_STILL_DEG = 2.0, 0.2  # verification needs both captures from one camera pose
 
@@ -31,6 +32,8 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
             reason=f"the camera moved {moved_mm:.0f} mm / {moved_deg:.1f} deg between the captures: verification "
             "compares two views from one pose (a camera on the arm must capture again where it first did)",
         )
+    if goal.group_size is not None:  # several parts swept into a container: counted there
+        return verify_group(ctx, after, segmenter)
     detections = segmenter.segment(after.rgb, goal.target)
     if len(detections) != 1:
         return Verification(ok=False, reason=f"target '{goal.target}' found {len(detections)} times after execution")

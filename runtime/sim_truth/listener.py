@@ -1,6 +1,7 @@
 """The simulator's truth of a run, recorded beside verification's own measurement so benches and tests can check
 it: where every object is at the run's two captures (an object's centre is the mean of its shapes' centres, on
-the axis of a body of revolution, so an unseen turn about that axis does not move it) and each hinge's angle.
+the axis of a body of revolution, so an unseen turn about that axis does not move it) and each hinge's angle;
+for a sweep, a lift or a take-off, whether the task is done as the task defines it (tasks.py).
 
 Attach it to the stages (PipelineStages(listeners=[SimTruth()])) on the sim only; it never decides a run.
 """
@@ -11,8 +12,10 @@ import numpy as np
 
 from drivers.sim.gl import mujoco
 from drivers.sim.world import SimWorld
+from pipeline.reasoning.instruction import parse_instruction
 from runtime.run.context import RunContext
 from runtime.run.summary import SimTruthRecord
+from runtime.sim_truth.tasks import task_truth
 
 
 def object_centres(world: SimWorld) -> tuple[dict[str, np.ndarray], dict[str, float]]:
@@ -59,4 +62,10 @@ class SimTruth:
         if name == "capture":
             self._before = centres
         elif name == "after":
-            ctx.record.summary.sim_truth = truth_of(ctx, before=self._before, after=centres, hinges=hinges)
+            truth = truth_of(ctx, before=self._before, after=centres, hinges=hinges)
+            try:
+                instr = parse_instruction(ctx.instruction)
+            except ValueError:
+                instr = None
+            task = task_truth(world, instr) if instr is not None else None
+            ctx.record.summary.sim_truth = truth.model_copy(update={"task": task}) if task else truth

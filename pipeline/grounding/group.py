@@ -1,0 +1,125 @@
+"""Grounding a group of like parts (the screws of a sweep): the motion of the parts' centroid.
+
+Why the centroid and not one motion per part: a sweep does not keep the parts' arrangement (they roll, bunch up
+and pile in the dustpan), like parts cannot be told apart between the two images, and a generated goal image draws
+them where it likes. What the contact needs is where the group is and where it must go; what verification needs
+is how many parts ended inside the container (pipeline.grounding.group_count). So the group's motion is a
+translation: the centroid of its parts' points in the goal view (the goal depth aligned on the background like a
+single object's) less their centroid in the initial view; R is the identity.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import ConvexHull, Delaunay
+
+from drivers.types import CameraIntrinsics
+from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
+from pipeline.grounding.ground import object_size, refuse
+from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
+from safety.geometry import transform_points
+
+MIN_GROUP_POINTS = 20  # points with depth a group needs in each view
+CONTAINER_ABOVE_M = 0.02  # a part counts as in a container up to this far above the container's top
+
+
+def ground_group(
+    inp: GroundingInput, config: GroundingConfig | None = None, T_base_camera: np.ndarray | None = None
+) -> ObjectMotion:
+    """The group's centroid motion (x_goal = x_init + t, camera frame) or a refusal with its reason."""
+    cfg = config or GroundingConfig()
+    K = inp.intrinsics
+    depth0 = np.where(np.isfinite(inp.depth0) & (inp.depth0 > 0), inp.depth0, np.nan).astype(np.float32)
+    background = ~(inp.mask0 | inp.mask1)
+    try:
+        align = fit_depth_alignment(depth0, inp.depth1, background, inp.depth1_kind, seed=cfg.seed)
+    except DepthAlignmentError as e:
+        return refuse(f"group: depth alignment failed: {e}")
+    common = {"depth_residual_m": align.residual_m, "T_base_camera": T_base_camera}
+    if align.inlier_fraction < cfg.min_background_inliers or align.residual_m > cfg.max_depth_residual_m:
+        return refuse(
+            f"group: goal depth does not fit the scene: background residual {align.residual_m * 1000:.1f} mm "
+            f"(limit {cfg.max_depth_residual_m * 1000:.0f}), inliers {align.inlier_fraction:.0%}",
+            **common,
+        )
+    depth1 = align.apply(inp.depth1)
+    valid0, valid1 = inp.mask0 & np.isfinite(depth0), inp.mask1 & np.isfinite(depth1)
+    if valid0.sum() < MIN_GROUP_POINTS or valid1.sum() < MIN_GROUP_POINTS:
+        return refuse(
+            f"group: too few points with depth: {valid0.sum()} initial, {valid1.sum()} goal (need {MIN_GROUP_POINTS})",
+            **common,
+        )
+    p0 = K.unproject_depth_image(depth0)[valid0]
+    p1 = K.unproject_depth_image(depth1)[valid1]
+    t = p1.mean(axis=0) - p0.mean(axis=0)
+    return ObjectMotion(
+        ok=True,
+        reason=f"group: its parts' centroid moves {np.linalg.norm(t) * 1000:.0f} mm",
+        t=t,
+        inliers=int(valid1.sum()),
+        confidence=float(np.exp(-align.residual_m / cfg.max_depth_residual_m)),
+        object_size_m=object_size(p0),
+        details={"group": True, "points_initial": int(valid0.sum()), "points_goal": int(valid1.sum())},
+        **common,
+    )
+
+
+@dataclass(frozen=True)
+class GroupCount:
+    """How many of a group's parts lie inside a container after a sweep, by the camera alone.
+
+    Touching parts are one region, so a region counts as its metric area over one part's (area in pixels times
+    depth squared, one part's being the initial group's over its size), at least one."""
+
+    total: int  # parts in the initial image
+    inside: int  # estimated parts inside the container's outline
+    outside: int  # estimated parts elsewhere
+    regions: tuple[tuple[float, float, int, bool], ...]  # per region: base x, y, parts, inside
+
+    @property
+    def fraction(self) -> float:
+        return self.inside / max(self.total, 1)
+
+
+def _metric_area(mask: np.ndarray, depth: np.ndarray) -> float:
+    z = depth[mask & np.isfinite(depth)]
+    return float(np.sum(z**2)) if len(z) else 0.0
+
+
+def count_in_container(
+    *,
+    depth0: np.ndarray,
+    K0: CameraIntrinsics,
+    T_base_camera0: np.ndarray,
+    group0: np.ndarray,
+    group_size: int,
+    container0: np.ndarray,
+    depth1: np.ndarray,
+    K1: CameraIntrinsics,
+    T_base_camera1: np.ndarray,
+    parts1: list[np.ndarray],
+) -> GroupCount:
+    """The parts seen after (parts1: one mask per region) counted inside the container's outline on the table
+    (its initial points, base frame), each region by its centroid."""
+    if group_size < 1:
+        raise ValueError("count_in_container: the initial group has no parts")
+    unit = _metric_area(group0, depth0) / group_size
+    pts = transform_points(T_base_camera0, K0.unproject_depth_image(depth0)[container0 & np.isfinite(depth0)])
+    if len(pts) < 20 or unit <= 0:
+        raise ValueError(f"count_in_container: the container shows {len(pts)} points, one part {unit:.2e} m^2 px")
+    outline = Delaunay(pts[:, :2][ConvexHull(pts[:, :2]).vertices])
+    top = float(np.percentile(pts[:, 2], 98)) + CONTAINER_ABOVE_M
+    regions = []
+    for mask in parts1:
+        valid = mask & np.isfinite(depth1)
+        if not valid.any():
+            continue
+        p = transform_points(T_base_camera1, K1.unproject_depth_image(depth1)[valid]).mean(axis=0)
+        parts = max(1, round(_metric_area(mask, depth1) / unit))
+        inside = bool(outline.find_simplex(p[:2]) >= 0) and p[2] < top
+        regions.append((float(p[0]), float(p[1]), int(parts), inside))
+    inside = min(group_size, sum(r[2] for r in regions if r[3]))
+    outside = sum(r[2] for r in regions if not r[3])
+    return GroupCount(group_size, inside, outside, tuple(regions))

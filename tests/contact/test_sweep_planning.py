@@ -1,0 +1,156 @@
+"""Sweep planning on synthetic clouds: the tool's ends, the strokes' geometry, and every refusal with its reason."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.contact.sweep import SweepConfig, SweepRefused, plan_sweep
+from pipeline.contact.tool import ToolError, tool_box, tool_shape
+from pipeline.contact.types import ContactConfig
+from runtime.run.contact import lowest_safe_tcp_height
+from safety.collision import CollisionWorld
+from safety.config import SafetyConfig
+from safety.robot_model import RobotModel
+
+STEP = 0.004
+
+
+def box_points(centre, size, yaw: float = 0.0, faces: str = "top+x") -> np.ndarray:
+    """Points on a box's top and +x side (what a camera at +x, above, sees), at its pose on the table."""
+    sx, _, sz = size
+    xs, ys, zs = (np.arange(-a / 2, a / 2 + 1e-9, STEP) for a in size)
+    top = np.array([(x, y, sz / 2) for x in xs for y in ys])
+    side = np.array([(sx / 2, y, z) for y in ys for z in zs])
+    pts = np.vstack([top, side] if "+x" in faces else [top])
+    c, s = np.cos(yaw), np.sin(yaw)
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    return pts @ R.T + np.asarray(centre)
+
+
+def brush(at=(0.62, 0.2), yaw: float = 0.0) -> np.ndarray:
+    """A brush like the sim's: a 50 x 120 x 30 mm head, a 150 mm handle reaching back (-x) 14-42 mm up."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    head = box_points((0, 0, 0.015), (0.05, 0.12, 0.03))
+    handle = box_points((-0.025 - 0.075, 0, 0.028), (0.15, 0.022, 0.028))
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    return np.vstack([head, handle]) @ R.T + [*at, 0.0]
+
+
+def dustpan(at=(0.44, -0.21), yaw: float = np.pi / 2) -> np.ndarray:
+    """A dustpan's walls (25 mm) and floor, open towards its +x (yaw pi/2: towards +y)."""
+    depth, width, h = 0.15, 0.19, 0.025
+    parts = [
+        box_points((-depth / 2 + 0.003, 0, h / 2), (0.006, width, h)),
+        box_points((-0.015, width / 2 - 0.003, h / 2), (depth - 0.03, 0.006, h)),
+        box_points((-0.015, -width / 2 + 0.003, h / 2), (depth - 0.03, 0.006, h)),
+        box_points((-0.015, 0, 0.001), (depth - 0.03, width - 0.012, 0.002), faces="top"),
+    ]
+    c, s = np.cos(yaw), np.sin(yaw)
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    return np.vstack(parts) @ R.T + [*at, 0.0]
+
+
+def screws(centre=(0.45, 0.05), spread: float = 0.05, n: int = 6, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.vstack(
+        [
+            box_points(
+                (*(np.asarray(centre) + rng.uniform(-spread, spread, 2)), 0.006),
+                (0.045, 0.012, 0.012),
+                rng.uniform(0, 3),
+            )
+            for _ in range(n)
+        ]
+    )
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+def sweep_plan(robot, group, tool, container, others=None, goal=(0.44, -0.20)):
+    scene = container[container[:, 2] > 0.01]
+    if others is not None:
+        scene = np.vstack([scene, others])
+    T = np.eye(4)
+    T[:2, 3] = np.asarray(goal) - group[:, :2].mean(axis=0)
+    safety = SafetyConfig(padding_m=0.01)
+    contact = ContactConfig(min_tcp_height_m=lowest_safe_tcp_height(robot, 0.01), collision_padding_m=0.01)
+    plan = plan_sweep(
+        group,
+        tool,
+        container,
+        scene,
+        T,
+        robot,
+        contact=contact,
+        safety_config=safety,
+        viewpoint=np.array([1.1, 0, 0.8]),
+    )
+    return plan, scene, safety
+
+
+def test_tool_shape_tells_the_head_from_the_handle():
+    for yaw in (0.0, 2.0):
+        shape = tool_shape(brush(yaw=yaw))
+        head_dir = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+        assert shape.axis @ head_dir > 0.99
+        assert np.linalg.norm(shape.front[:2] - (np.array([0.62, 0.2]) + 0.025 * head_dir[:2])) < 0.01
+        assert shape.head_width_m == pytest.approx(0.12, abs=0.01) and shape.handle_width_m < 0.03
+    with pytest.raises(ToolError, match="no working end wider than a handle"):
+        tool_shape(box_points((0.5, 0.0, 0.02), (0.2, 0.03, 0.04)))
+
+
+def test_held_tool_box_is_the_tool_in_its_own_frame(robot):
+    shape = tool_shape(brush(yaw=0.6))
+    T_grasp = np.eye(4)
+    T_grasp[:3, :3] = np.diag([1.0, -1.0, -1.0])
+    T_grasp[:3, 3] = [0.55, 0.15, 0.03]
+    box = tool_box(shape, T_grasp, tcp_link=robot.tcp_frame, name="brush")
+    length, width, height = box.size
+    assert length == pytest.approx(0.2, abs=0.012) and width == pytest.approx(0.12, abs=0.012)
+    T_base_box = T_grasp @ box.T_link_geom
+    assert T_base_box[2, 3] - height / 2 == pytest.approx(0.0, abs=1e-6)  # from the table it lies on
+
+
+def test_strokes_cover_the_group_and_end_inside_the_dustpan(robot):
+    group, tool, container = screws(), brush(), dustpan()
+    plan, scene, safety = sweep_plan(robot, group, tool, container)
+    assert 1 <= len(plan.strokes) <= 2 and plan.T_contact[2, 2] < -0.95
+    cfg = SweepConfig()
+    world = CollisionWorld(robot, safety, points=scene, held=plan.held, held_padding_m=cfg.tool_padding_m)
+    for stroke in plan.strokes:
+        for T, q in ((stroke.T_start, stroke.q_start), (stroke.T_end, stroke.q_end)):
+            assert np.allclose(robot.tcp_pose(q), T, atol=1e-3)
+            assert not world.in_collision(q, plan.width_m)
+            box = T @ plan.held.T_link_geom
+            assert box[2, 3] - plan.held.size[2] / 2 == pytest.approx(cfg.clearance_m, abs=1e-3)
+    # the head ends over the dustpan's floor (y from -0.285 to -0.135 here), having started behind the screws
+    ends = [s.T_end[1, 3] for s in plan.strokes]
+    starts = [s.T_start[1, 3] for s in plan.strokes]
+    assert all(e < -0.05 for e in ends) and all(s > group[:, 1].max() for s in starts)
+
+
+@pytest.mark.parametrize(
+    ("case", "why"),
+    [
+        ("dustpan turned away", "opens away from it"),
+        ("block in the way", "stand in the head's way"),
+        ("brush out of reach", "handle cannot be grasped"),
+        ("screws spread wide", "strokes of the"),
+    ],
+)
+def test_sweeps_that_cannot_be_done_are_refused_with_the_reason(robot, case, why):
+    group, tool, container, others = screws(), brush(), dustpan(), None
+    if case == "dustpan turned away":
+        container = dustpan(yaw=-np.pi / 2)
+    elif case == "block in the way":
+        others = box_points((0.45, -0.06, 0.025), (0.05, 0.05, 0.05))
+    elif case == "brush out of reach":
+        tool = brush(at=(1.05, 0.5))
+    else:
+        group = np.vstack([screws((x, 0.08), 0.01, 2) for x in (0.25, 0.5, 0.75)])
+    with pytest.raises(SweepRefused, match=why):
+        sweep_plan(robot, group, tool, container, others)
