@@ -18,6 +18,8 @@ from pipeline.contact.types import ContactConfig, ContactMode
 
 PAD_HALF_WIDTH_M = 0.016  # half the finger pad's width (along the TCP x axis)
 PAD_LENGTH_M = 0.06  # how far the pads reach from the TCP back toward the wrist
+RAISED_M = 0.03  # an object whose lowest seen points are this high stands on something other than the table
+SUPPORT_CELL_M = 0.01  # ... which the gate sees as points, in cells this large
 
 
 @dataclass(frozen=True)
@@ -87,7 +89,13 @@ def grasp_candidates(
     axes = np.linalg.svd(xy - xy.mean(axis=0), full_matrices=False)[2]
     spread = np.percentile(np.abs(xy @ axes.T), 90, axis=0)
     offsets = (0.0, -0.5 * spread[0], 0.5 * spread[0]) if spread[0] > 1.6 * spread[1] else (0.0,)
-    height = max(top - min(cfg.grasp_depth_m, 0.75 * top), cfg.min_tcp_height_m)
+    # the object's own height, and the fingers' clearance, from what it stands on: the table (its underside may be
+    # hidden: a lying bottle's lowest seen points are well above it), or a raised support the gate sees as points
+    # (in cells of up to SUPPORT_CELL_M)
+    bottom = float(np.percentile(points[:, 2], 2))
+    bottom = bottom if bottom >= RAISED_M else 0.0
+    floor = bottom + cfg.min_tcp_height_m + (SUPPORT_CELL_M if bottom > 0.0 else 0.0)
+    height = max(top - min(cfg.grasp_depth_m, 0.75 * (top - bottom)), floor)
     for offset in offsets:
         origin = np.array([*(centre_xy + offset * axes[0]), height])
         for yaw in np.radians(np.arange(0.0, 180.0, cfg.yaw_step_deg)):
@@ -95,7 +103,7 @@ def grasp_candidates(
     # from the side: horizontal approach from the robot's side, closing axis horizontal
     toward = np.array([centroid[0], centroid[1], 0.0])
     toward /= max(np.linalg.norm(toward), 1e-9)
-    side_height = max(0.5 * top, cfg.min_tcp_height_m)
+    side_height = max(0.5 * (top + bottom), floor)
     for angle in np.radians(cfg.side_approach_deg):
         c, s = np.cos(angle), np.sin(angle)
         z = np.array([c * toward[0] - s * toward[1], s * toward[0] + c * toward[1], 0.0])

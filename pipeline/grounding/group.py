@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy.spatial import ConvexHull, Delaunay
 
@@ -70,8 +71,9 @@ def ground_group(
 class GroupCount:
     """How many of a group's parts lie inside a container after a sweep, by the camera alone.
 
-    Touching parts are one region, so a region counts as its metric area over one part's (area in pixels times
-    depth squared, one part's being the initial group's over its size), at least one."""
+    Touching parts are one region, in either capture, so a region counts as its metric area (area in pixels times
+    depth squared) over one part's, at least one; one part's is the median of the initial regions' (most parts
+    lie apart before a sweep)."""
 
     total: int  # parts in the initial image
     inside: int  # estimated parts inside the container's outline
@@ -94,7 +96,6 @@ def count_in_container(
     K0: CameraIntrinsics,
     T_base_camera0: np.ndarray,
     group0: np.ndarray,
-    group_size: int,
     container0: np.ndarray,
     depth1: np.ndarray,
     K1: CameraIntrinsics,
@@ -102,10 +103,14 @@ def count_in_container(
     parts1: list[np.ndarray],
 ) -> GroupCount:
     """The parts seen after (parts1: one mask per region) counted inside the container's outline on the table
-    (its initial points, base frame), each region by its centroid."""
-    if group_size < 1:
-        raise ValueError("count_in_container: the initial group has no parts")
-    unit = _metric_area(group0, depth0) / group_size
+    (its initial points, base frame), each region by its centroid; group0: the initial group's union mask."""
+    n, labels = cv2.connectedComponents(group0.astype(np.uint8), connectivity=8)
+    areas = np.array([_metric_area(labels == k, depth0) for k in range(1, n)])
+    areas = areas[areas > 0]
+    if not len(areas):
+        raise ValueError("count_in_container: the initial group shows no part with depth")
+    unit = float(np.median(areas))
+    group_size = int(sum(max(1, round(a / unit)) for a in areas))
     pts = transform_points(T_base_camera0, K0.unproject_depth_image(depth0)[container0 & np.isfinite(depth0)])
     if len(pts) < 20 or unit <= 0:
         raise ValueError(f"count_in_container: the container shows {len(pts)} points, one part {unit:.2e} m^2 px")

@@ -165,8 +165,10 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     speck = _within(c.area_frac, 0.0, SPECK_AREA_FRAC, 2e-4) * _within(c.elongation, 1.6, inf, 0.3)
     brush = _within(c.end_width, 0.0, 0.3, 0.1) * _within(c.wide_elongation, 1.7, inf, 0.2)
     out = {k: v * (1.0 - speck) for k, v in out.items()}
+    # a rack: tines all over it (edges), and gaps between them (it fills little of its rectangle, a box much)
+    rack = _within(c.edge_density, 4.0, inf, 0.8) * _within(c.rect_fill, 0.0, 0.62, 0.05)
     out["pan"] *= 1.0 - brush
-    out["lidded_box"] *= 1.0 - brush
+    out["lidded_box"] *= (1.0 - brush) * (1.0 - rack)
     polygonal = _within(c.corners, 0.0, 6.5, 1.0)
     out |= {
         "screw": speck,
@@ -176,7 +178,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * _within(c.aspect, 0.45, 0.82, 0.08)
         * _within(c.elongation, 1.3, 3.0, 0.1),
         "dustpan": RESEMBLES * hollow * polygonal * _within(c.ellipse_iou, 0.0, 0.9, 0.04) * (1.0 - brush),
-        "dish_rack": RESEMBLES * _within(c.edge_density, 4.0, inf, 0.8) * polygonal * (1.0 - brush),
+        "dish_rack": rack * polygonal * (1.0 - brush),
         "stand": RESEMBLES
         * polygonal
         * _within(c.rect_fill, 0.3, 0.72, 0.08)

@@ -121,8 +121,11 @@ class OfflineEditor(ImageEditor):
             fy = footprint(py, plane)
             if instr.relation in ("on", "in"):  # the reference is where it goes, not in its way
                 exclude |= grow(mask_y, 3)
-            if instr.action == "take_off":  # X stands on Y: Y's points under X are not X's
-                px = px[~_on_support(px, plane, py)]
+            if instr.action == "take_off":  # X stands on Y: pixels of X whose depth is Y's (its edge) are Y's
+                keep = ~_on_support(px, plane, py)
+                mask_x = mask_x.copy()
+                mask_x[mask_x] = keep
+                px = px[keep]
                 fx = footprint(px, plane)
         table = Table(depth_m, K, plane, exclude, request.T_base_camera, self.placement)
         R, pivot, t = self._motion(instr, plane, fx, fy, table)
@@ -132,6 +135,8 @@ class OfflineEditor(ImageEditor):
         colours = rgb[mask_x]
         if instr.action == "stand_up":  # the hidden underside turns into view: complete the body first
             px, colours = revolve(fx, colours, plane)
+        elif instr.action == "take_off" and not np.allclose(R, np.eye(3)):  # a face turned towards the camera
+            px, colours = _subsampled(px, colours)  # shows more of it than its pixels covered
         goal_rgb, goal_depth = _render(rgb, depth_m, K, plane, mask_x, px, colours, T)
         return goal_rgb, goal_depth, T
 
@@ -344,6 +349,16 @@ def _take_off(
             return R, pivot, shift - lowest * plane.n
         problems.append(why)
     raise GeometryError(f"cannot {instr.canonical()}: " + "; ".join(problems))
+
+
+def _subsampled(points: np.ndarray, colours: np.ndarray, k: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """The points with the midpoints to their k nearest neighbours added (their colours): a surface turned to face
+    the camera spans more pixels than it was seen on, and would show holes between its points."""
+    from scipy.spatial import cKDTree
+
+    _, index = cKDTree(points).query(points, k=k + 1)
+    mids = 0.5 * (points[:, None, :] + points[index[:, 1:]])
+    return np.vstack([points, mids.reshape(-1, 3)]), np.vstack([colours, np.repeat(colours, k, axis=0)])
 
 
 def _thin_axis(points: np.ndarray) -> np.ndarray | None:

@@ -32,7 +32,6 @@ def verify_group(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Ver
         K0=before.intrinsics,
         T_base_camera0=before.T_base_camera,
         group0=goal.mask_init,
-        group_size=goal.group_size,
         container0=goal.mask_reference,
         depth1=after.depth,
         K1=after.intrinsics,
