@@ -114,7 +114,7 @@ def _brush(rng: Rng) -> dict:
 
 
 def _dustpan(rng: Rng) -> dict:
-    return {"size_m": (_u(rng, 0.13, 0.16), _u(rng, 0.17, 0.21), _u(rng, 0.02, 0.03))}
+    return {"size_m": (_u(rng, 0.13, 0.16), _u(rng, 0.22, 0.28), _u(rng, 0.02, 0.03))}
 
 
 def _dish_rack(rng: Rng) -> dict:

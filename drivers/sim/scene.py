@@ -58,6 +58,8 @@ DEFAULT_HEIGHT_M = {"cylinder": 0.1, "plate": 0.015, "bottle": 0.22, "pan": 0.04
 CUP_WALL_M = 0.005
 CUP_SEGMENTS = 16
 SCREW_HEAD = (1.7, 0.18)  # head radius / shank radius, head thickness / screw length
+# a screw's thread and hex head roll far worse than a smooth cylinder (rolling resistance [m] like a soft fruit's x3)
+SCREW_FRICTION = "1.0 0.01 0.01"
 BRUSH_HANDLE_M = (0.15, 0.022, 0.028)  # default handle length, width, thickness; its underside 14 mm up
 BRUSH_HANDLE_LIFT_M = 0.014
 BRISTLE_FRACTION = 0.55  # of the head's height, from the table up: the bristles, a darker shade
@@ -598,7 +600,7 @@ def _add_screw(body: ET.Element, asset: ET.Element, o: SceneObject, mat: str) ->
     r, length = o.radius_m, o.height_m
     head_r, head_len = SCREW_HEAD[0] * r, SCREW_HEAD[1] * length
     shank = length - head_len
-    rolls = {"condim": "6", "friction": ROLLING_FRICTION}
+    rolls = {"condim": "6", "friction": SCREW_FRICTION}
     _geom(
         body,
         o,

@@ -99,16 +99,27 @@ class ManipulationChain:
             raise ManipulationRefused(f"{what}: {e}") from e
 
     def approved(
-        self, steps: list, world: CollisionWorld, q_start: np.ndarray, what: str, free_move: bool = False
+        self,
+        steps: list,
+        world: CollisionWorld,
+        q_start: np.ndarray,
+        what: str,
+        free_move: bool = False,
+        tcp_speed_m_s: float | None = None,
     ) -> ApprovedTrajectory:
         """Timed and approved by the gate. A free move (no contact in it) may blend through its waypoints, its
         corners cut where that stays clear and kept only where the gate accepts the bent path; everything else
-        rests at each waypoint, on the checked lines."""
+        rests at each waypoint, on the checked lines. tcp_speed_m_s: a slower TCP than the safety limit (a tool
+        pushing small parts)."""
         blend = free_move and self.motion.blend_free_moves
         if blend:  # only paths with corners (a direct move has none, and cutting builds an inflated world)
             steps = [self.planner(world).smooth(s) if isinstance(s, np.ndarray) and len(s) > 2 else s for s in steps]
+        timer = self.timer
+        if tcp_speed_m_s is not None:
+            speed = min(tcp_speed_m_s, self.safety.max_tcp_speed_m_s)
+            timer = TrajectoryTimer(self.limits, self.dt, self.robot.joint_names, self.robot.tcp_positions, speed)
         try:
-            trajectory = self.timer.time(steps, blend=blend, check=gate_check(world, q_start) if blend else None)
+            trajectory = timer.time(steps, blend=blend, check=gate_check(world, q_start) if blend else None)
             return approve(trajectory, world, q_current=q_start)
         except TimingError as e:
             raise ManipulationRefused(f"{what}: timing failed: {e}") from e

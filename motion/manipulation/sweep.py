@@ -3,15 +3,15 @@
   approach     free path to above the tool's handle (tool, group and scene are obstacles), open
   grasp tool   straight down, close, straight up (the tool is what is touched)
   carry tool   free path, the tool held (grown by the robot's padding), to above the first stroke's start
-  sweep        per stroke: straight down behind the group, straight along into the container, straight up, then
-               straight over to above the next stroke's start; the tool held with its own small margin (its
-               bristles skim the table) and the group not an obstacle (the tool pushes it); the container's
-               walls and everything else are
-  carry back   free path, the tool held (robot's padding), to above where it lay; the group where it was and
-               where it goes are obstacles
+  sweep        per stroke, at STROKE_SPEED_M_S: straight down behind the group, straight along into the
+               container, straight up, then straight over to above the next stroke's start; the tool held with
+               its own small margin (its bristles skim the table) and the group not an obstacle (the tool pushes
+               it); the container's walls and everything else are
+  carry back   free path, the tool held (robot's padding), to above where it lay; the group where it goes is an
+               obstacle (where it was, the strokes cleared)
   put down     straight down until the tool is just above where it lay (its own margin), open
   retreat      straight up
-  home         free path home; the tool and the group (both places) are obstacles
+  home         free path home; the tool and the group where it goes are obstacles
 The free paths end at the joints sweep planning solved, checked in each phase's world.
 """
 
@@ -27,6 +27,8 @@ from motion.manipulation.phases import CLOSE_S, LIFT_M, OPEN_S, ManipulationPlan
 from motion.timing import GripperAction
 from safety.collision import CollisionWorld
 from safety.geometry import Primitive, transform_points
+
+STROKE_SPEED_M_S = 0.15  # the tool's speed while it pushes: small parts thrown faster roll and bounce away
 
 
 class Stroke(Protocol):
@@ -65,7 +67,7 @@ def plan_sweep_phases(chain: ManipulationChain, contact: SweepContact, tool_poin
     group = chain.target_points
     moved = transform_points(contact.T_motion, group)
     everything_before = np.vstack([chain.scene_points, group, tool])
-    after = np.vstack([chain.scene_points, group, moved])
+    after = np.vstack([chain.scene_points, moved])
 
     def world(points: np.ndarray, width: float, held: Primitive | None = None, own_margin: bool = False):
         padding = contact.tool_padding_m if own_margin else None
@@ -104,7 +106,7 @@ def plan_sweep_phases(chain: ManipulationChain, contact: SweepContact, tool_poin
         for T, what in ((stroke.T_start, "down behind the group"), (stroke.T_end, "along"), (stroke.T_above_end, "up")):
             path.append(chain.line(planner, q, T, f"stroke {k}: {what}"))
             q = path[-1][-1]
-    strokes = chain.approved(path, sweeping, q_first, "sweep")
+    strokes = chain.approved(path, sweeping, q_first, "sweep", tcp_speed_m_s=STROKE_SPEED_M_S)
 
     (T_release, T_above), (_, q_above) = contact.T_place, contact.q_place
     back_world = world(after, contact.width_m, contact.held)

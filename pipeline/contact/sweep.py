@@ -1,21 +1,25 @@
 """Sweeping a group of small parts into a container with a hand tool: the tool's grasp and the strokes.
 
 The tool (tool.py: its head and handle) is grasped on its handle by the same grasp planning as any object
-(planner.plan_contacts, from above, the head kept clear of the fingers), which also solves the poses it is put
-back from: where it was, released just above the table. The strokes push the group along its motion (the group
-centroid's translation, pipeline.grounding.group) into the container:
-  lanes     the group's width across the motion, split into as few lanes as the head's width (less a margin
-            each side) covers; each lane starts with the head's front edge behind the group's nearest part
-  end       the head's front edge stops short of the container's far wall; laterally each lane ends between the
-            container's side walls (a lane wider than the group is drawn in, so strokes may slant)
+(planner.plan_contacts; from above, the fingers across the handle, clear of the head, nearest it first), which
+also solves the poses it is put back from: where it was, released just above the table. The strokes push the
+group into the container, straight in, as a person sweeps into a dustpan:
+  direction the group's motion (the group centroid's translation, pipeline.grounding.group) finds the container's
+            far wall; the strokes run perpendicular to it (along the side walls), or along the motion when the
+            container shows no straight far wall
+  lanes     the group's width across the strokes, split into as few lanes as the head's width (less a margin
+            each side) covers; each starts with the head's front edge behind the group's nearest part
+  end       the head's front edge stops short of the container's far wall, between its side walls: a lane beside
+            the opening slants in, the tool (all its length between the walls) turned with it
   height    the tool level, its lowest point `clearance_m` above the table (over a dustpan's lip and floor)
   travel    between strokes the tool rises to `travel_m` and goes back over the group
+  passes    the lanes are swept `passes` times, as a person sweeps again what slid past the head's edge
 The tool keeps its grasp and its level all along: a stroke pose is the grasp pose turned about the vertical so
 the head leads, and shifted so the head's front edge is where the stroke puts it.
 
 Refusals, each with the numbers: the motion has no horizontal part; the container's wall faces the group (it opens
-away from it); the head does not fit between the container's walls; another object stands in a lane; the group
-is wider than `max_strokes` lanes; a stroke slants more than `max_slant_deg` off the motion; the handle has no
+away from it); the head does not fit between the container's walls; a lane would slant more than `max_turn_deg`
+to end between them; another object stands in a lane; the group is wider than `max_strokes` lanes; the handle has no
 reachable grasp; no grasp reaches every stroke pose collision-free (the tool held, checked with its own margin).
 """
 
@@ -37,6 +41,7 @@ from safety.geometry import Primitive
 from safety.robot_model import RobotModel
 
 LIFT_M = 0.10  # the tool is lifted this far after the grasp (motion.manipulation.phases.LIFT_M)
+MAX_GRASP_SKEW_DEG = 20.0  # the fingers close across the handle, at most this far off square to it
 
 
 @dataclass(frozen=True)
@@ -48,13 +53,15 @@ class SweepConfig:
     side_gap_m: float = 0.015  # head clear of the container's side walls (the gate sees points as 1 cm cells)
     clearance_m: float = 0.004  # the tool's lowest point above the table along a stroke
     travel_m: float = 0.07  # the tool's lowest point above the table between strokes
-    edge_margin_m: float = 0.01  # of the head's width, each side, not counted on to carry parts along
+    edge_margin_m: float = 0.015  # of the head's width, each side, not counted on to carry parts along ...
+    overhang_m: float = 0.01  # ... and the lanes reach this far beyond the group's outermost seen points
     tool_padding_m: float = 0.002  # the held tool's margin in the gate while it touches or skims (robot: padding_m)
     release_m: float = 0.006  # the tool is released this far above where it lay
     wall_height_m: float = 0.01  # container points this high above the table are its walls
     obstacle_height_m: float = 0.01  # other points this high in a lane stand in the way
-    max_strokes: int = 4
-    max_slant_deg: float = 35.0
+    max_strokes: int = 4  # lanes
+    passes: int = 2  # every lane swept this many times: a part that slid off the head's edge is caught again
+    max_turn_deg: float = 35.0  # strokes run at most this far off the motion (square to the far wall, or slanting in)
     min_motion_m: float = 0.03
 
 
@@ -167,12 +174,30 @@ def plan_sweep(
             f"the group's goal is {np.linalg.norm(shift) * 1000:.0f} mm from where it is (need "
             f"{cfg.min_motion_m * 1000:.0f} mm along the table to sweep it)"
         )
-    d = np.array([*shift / np.linalg.norm(shift), 0.0])
+    d = _into(container, group, shift, cfg)
     frame = _Frame(np.array([*group[:, :2].mean(axis=0), 0.0]), d, np.array([-d[1], d[0], 0.0]))
-    lanes = _lanes(group, container, scene, frame, shape, cfg, float(np.linalg.norm(shift)))
+    lanes = _lanes(group, container, scene, frame, shape, cfg, float(shift @ d[:2]))
     return _reachable(
         shape, lanes, group, scene, T_motion, robot, contact, cfg, safety_config, q_seed, viewpoint, tool_name
     )
+
+
+def _into(container: np.ndarray, group: np.ndarray, shift: np.ndarray, cfg: SweepConfig) -> np.ndarray:
+    """The strokes' direction: square to the container's far wall (the line through its wall points beyond the
+    group's goal, along the motion), or the motion's own when there is no such straight wall."""
+    d = shift / np.linalg.norm(shift)
+    walls = container[container[:, 2] > cfg.wall_height_m, :2]
+    s = (walls - group[:, :2].mean(axis=0)) @ d
+    far = walls[s > np.linalg.norm(shift)]
+    if len(far) >= 10:
+        centred = far - far.mean(axis=0)
+        _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+        if sv[1] < 0.2 * sv[0]:  # a straight wall
+            normal = np.array([-vt[0][1], vt[0][0]])
+            normal = normal if normal @ d > 0 else -normal
+            if np.degrees(np.arccos(np.clip(normal @ d, -1.0, 1.0))) <= cfg.max_turn_deg:
+                d = normal
+    return np.array([d[0], d[1], 0.0])
 
 
 def _lanes(
@@ -213,7 +238,7 @@ def _lanes(
             f"({(float(left.min()) - float(right.max())) * 1000:.0f} mm apart, {cfg.side_gap_m * 1000:.0f} mm kept "
             "each side)"
         )
-    g_lo, g_hi = float(np.percentile(gl, 1)) - 0.005, float(np.percentile(gl, 99)) + 0.005
+    g_lo, g_hi = float(np.percentile(gl, 1)) - cfg.overhang_m, float(np.percentile(gl, 99)) + cfg.overhang_m
     count = max(1, int(np.ceil((g_hi - g_lo) / (2 * reach))))
     if count > cfg.max_strokes:
         raise SweepRefused(
@@ -222,17 +247,22 @@ def _lanes(
         )
     centres = [0.5 * (g_lo + g_hi)] if count == 1 else list(np.linspace(g_lo + reach, g_hi - reach, count))
     s_start = float(np.percentile(gs, 1)) - cfg.start_gap_m
+    if s_end - s_start < 0.02:
+        raise SweepRefused(f"the container's far wall is {(s_end - s_start) * 1000:.0f} mm beyond the group's back")
+    walls_length = float(far - ws[inner].min()) if inner.any() else 0.0
     lanes = []
-    for c in centres:
-        c_end = float(np.clip(c, lo, hi))
-        start, end = f.point(s_start, c), f.point(s_end, c_end)
-        slant = np.degrees(np.arctan2(abs(c_end - c), s_end - s_start))
-        if s_end - s_start < 0.02 or slant > cfg.max_slant_deg:
+    for c in centres:  # a lane beside the opening slants in; the tool then lies aslant between the walls
+        end = float(np.clip(c, lo, hi))
+        for _ in range(4):
+            slant = np.arctan2(abs(c - end), s_end - s_start)
+            end = float(np.clip(c, lo + walls_length * np.sin(slant), hi - walls_length * np.sin(slant)))
+        slant = np.degrees(np.arctan2(abs(c - end), s_end - s_start))
+        if slant > cfg.max_turn_deg or lo + walls_length * np.sin(np.radians(slant)) > hi:
             raise SweepRefused(
-                f"a stroke from {s_start * 1000:.0f} to {s_end * 1000:.0f} mm along the motion would slant "
-                f"{slant:.0f} deg to end between the container's walls (at most {cfg.max_slant_deg:.0f})"
+                f"a stroke {c * 1000:+.0f} mm across the group's middle would slant {slant:.0f} deg to end between the "
+                f"container's walls (at most {cfg.max_turn_deg:.0f})"
             )
-        lanes.append(_Lane(start, end, c))
+        lanes.append(_Lane(f.point(s_start, c), f.point(s_end, end), c))
     _check_lanes_free(lanes, container, scene, shape, cfg)
     return lanes
 
@@ -279,7 +309,10 @@ def _reachable(
 ) -> SweepPlan:
     """The first ranked grasp of the handle whose strokes all have collision-free IK with the tool held."""
     lifts = (cfg.release_m, cfg.release_m + LIFT_M)
-    grasp_config = contact.model_copy(update={"place_lifts_m": lifts, "side_approach_deg": ()})
+    # every reachable grasp (not the few best): the one nearest the head is wanted, whatever its score
+    grasp_config = contact.model_copy(
+        update={"place_lifts_m": lifts, "side_approach_deg": (), "keep": contact.ik_candidates}
+    )
     others = np.vstack([scene, group]) if len(group) else scene
     world = CollisionWorld(robot, safety_config, points=np.vstack([others, shape.head]), table=False)
     result = plan_contacts(
@@ -298,19 +331,21 @@ def _reachable(
         raise SweepRefused(f"the {tool_name}'s handle cannot be grasped: {result.reason}")
     rejected: Counter[str] = Counter()
     gripper = GripperBoxes(robot, contact.collision_padding_m)
-    first_problem = ""
-    for plan in result.plans:
+    # nearest the head first: the head carries the tool's weight, which turns it in a grasp far from it
+    for plan in sorted(result.plans, key=lambda p: float(np.linalg.norm(p.T_contact[:2, 3] - shape.front[:2]))):
         if plan.T_contact[2, 2] > -0.95:
             rejected["grasp not from above"] += 1
+            continue
+        if abs(plan.T_contact[:3, 1] @ shape.axis) > np.sin(np.radians(MAX_GRASP_SKEW_DEG)):
+            rejected["fingers not across the handle"] += 1
             continue
         if any(gripper.hits_points(T, plan.open_width_m, shape.head) for T in (plan.T_pre, plan.T_contact)):
             rejected["fingers on the head"] += 1
             continue
         try:
-            strokes = _strokes(plan, shape, lanes, scene, robot, cfg, safety_config, tool_name)
+            strokes = _strokes(plan, shape, lanes, scene, robot, cfg, safety_config, tool_name) * cfg.passes
         except _Unreachable as e:
             rejected[e.reason] += 1
-            first_problem = first_problem or e.reason
             continue
         return SweepPlan(
             T_pre=plan.T_pre,

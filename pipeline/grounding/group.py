@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.spatial import ConvexHull, Delaunay
+from scipy.spatial import ConvexHull, cKDTree
 
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
@@ -24,6 +24,24 @@ from safety.geometry import transform_points
 
 MIN_GROUP_POINTS = 20  # points with depth a group needs in each view
 CONTAINER_ABOVE_M = 0.02  # a part counts as in a container up to this far above the container's top
+FLOOR_BAND_M = 0.006  # a container's points this close above its lowest are its floor ...
+FLOOR_DENSE_M, FLOOR_NEIGHBOURS = 0.01, 20  # ... where they are dense (within 1 cm, a 1 m view has ~40 of them)
+WALL_ABOVE_M = 0.01  # container points this high above its floor are its walls
+WALLED_MARGIN_M = 0.005  # a part's centre at least this far inside the floor's edge along a wall ...
+OPEN_MARGIN_M = 0.02  # ... and this far along an open edge (a dustpan's lip): a part half over it is not in
+
+
+def _edge_margins(floor: ConvexHull, walls_xy: np.ndarray) -> np.ndarray:
+    """Per edge of the floor's outline, how far inside it a part's centre must be: a little along a wall (the
+    wall keeps parts in), more along an open edge (a part there may hang over it)."""
+    margins = np.full(len(floor.equations), OPEN_MARGIN_M)
+    for k, (simplex, eq) in enumerate(zip(floor.simplices, floor.equations, strict=True)):
+        a, b = floor.points[simplex]
+        along = (walls_xy - a) @ (b - a) / max(float(np.dot(b - a, b - a)), 1e-12)
+        out = walls_xy @ eq[:2] + eq[2]  # > 0: outside this edge
+        if np.sum((along > 0.1) & (along < 0.9) & (out > -0.01) & (out < 0.02)) >= 5:
+            margins[k] = WALLED_MARGIN_M
+    return margins
 
 
 def ground_group(
@@ -102,8 +120,9 @@ def count_in_container(
     T_base_camera1: np.ndarray,
     parts1: list[np.ndarray],
 ) -> GroupCount:
-    """The parts seen after (parts1: one mask per region) counted inside the container's outline on the table
-    (its initial points, base frame), each region by its centroid; group0: the initial group's union mask."""
+    """The parts seen after (parts1: one mask per region) counted inside the container: each region whose centroid
+    lies over the container's floor as first seen (its lowest points, base frame: a part resting on a wall's top
+    is not in it); group0: the initial group's union mask."""
     n, labels = cv2.connectedComponents(group0.astype(np.uint8), connectivity=8)
     areas = np.array([_metric_area(labels == k, depth0) for k in range(1, n)])
     areas = areas[areas > 0]
@@ -112,9 +131,15 @@ def count_in_container(
     unit = float(np.median(areas))
     group_size = int(sum(max(1, round(a / unit)) for a in areas))
     pts = transform_points(T_base_camera0, K0.unproject_depth_image(depth0)[container0 & np.isfinite(depth0)])
-    if len(pts) < 20 or unit <= 0:
-        raise ValueError(f"count_in_container: the container shows {len(pts)} points, one part {unit:.2e} m^2 px")
-    outline = Delaunay(pts[:, :2][ConvexHull(pts[:, :2]).vertices])
+    if len(pts) < 20:
+        raise ValueError(f"count_in_container: the container shows {len(pts)} points with depth")
+    low = pts[pts[:, 2] < np.percentile(pts[:, 2], 3) + FLOOR_BAND_M, :2]  # its floor (and lip): inside its walls
+    neighbours = cKDTree(low).query_ball_point(low, FLOOR_DENSE_M, return_length=True)
+    low = low[neighbours >= FLOOR_NEIGHBOURS]  # not a rim of mixed pixels at the mask's edge (the table's)
+    if len(low) < 20:
+        raise ValueError("count_in_container: the container shows no floor")
+    floor = ConvexHull(low)
+    margins = _edge_margins(floor, pts[pts[:, 2] > np.percentile(pts[:, 2], 3) + WALL_ABOVE_M, :2])
     top = float(np.percentile(pts[:, 2], 98)) + CONTAINER_ABOVE_M
     regions = []
     for mask in parts1:
@@ -123,8 +148,9 @@ def count_in_container(
             continue
         p = transform_points(T_base_camera1, K1.unproject_depth_image(depth1)[valid]).mean(axis=0)
         parts = max(1, round(_metric_area(mask, depth1) / unit))
-        inside = bool(outline.find_simplex(p[:2]) >= 0) and p[2] < top
+        inside = bool(np.all(floor.equations[:, :2] @ p[:2] + floor.equations[:, 2] <= -margins)) and p[2] < top
         regions.append((float(p[0]), float(p[1]), int(parts), inside))
-    inside = min(group_size, sum(r[2] for r in regions if r[3]))
     outside = sum(r[2] for r in regions if not r[3])
+    # an area is a loose count (a part lying askew shows more of itself): the parts seen elsewhere bound it
+    inside = max(0, min(group_size - outside, sum(r[2] for r in regions if r[3])))
     return GroupCount(group_size, inside, outside, tuple(regions))

@@ -34,7 +34,7 @@ import numpy as np
 
 from pipeline.perception.colour_regions import ACHROMATIC, CHROMATIC, Region, hsv, regions
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, box_of, check_rgb
-from pipeline.perception.shape_cues import classify, cues
+from pipeline.perception.shape_cues import SPECK_AREA_FRAC, classify, cues
 
 COLOUR_WORDS: dict[str, str] = {c: c for c in (*CHROMATIC, *ACHROMATIC)} | {"grey": "gray", "violet": "purple"}
 # what a shape word names: kinds of the simulator's objects
@@ -84,6 +84,7 @@ SHAPE_ONLY_FIT = 0.5  # ... and with no colour word, fitting it at least this we
 SHADE_RATIO = 0.8  # a light (dark) region's saturation (value) against the deepest (brightest) of its colour
 PILE_AREA_FRAC = 5e-3  # a pile of small parts (screws) is at most this share of the image ...
 PILE_FILL, PILE_ELLIPSE = 0.75, 0.7  # ... and fills less of its rectangle, or of its ellipse, than any solid does
+FRAGMENT_AREA_FRAC = 2 * SPECK_AREA_FRAC  # a region this small of the colour is a part, partly seen
 
 
 @dataclass(frozen=True)
@@ -213,11 +214,17 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
 
 
 def _piles(rgb: np.ndarray, others: list[Instance], want: ObjectPhrase) -> list[Instance]:
-    """Regions of the named colour that are piles of small parts (a plural phrase's parts heaped in a dustpan):
-    no larger than PILE_AREA_FRAC of the image and irregular (neither a block's, a can's nor a ball's outline)."""
+    """Regions of the named colour that are small parts too, of a plural phrase (its parts heaped in a dustpan,
+    half hidden behind a wall): no larger than PILE_AREA_FRAC of the image, and either a fragment (at most two
+    parts' size) or irregular (neither a block's, a can's nor a ball's outline): a region that is a whole object of
+    another kind is not one of them."""
     out = []
     for i in others:
-        if i.region.colour != want.colour or i.region.area > PILE_AREA_FRAC * i.region.mask.size:
+        frac = i.region.area / i.region.mask.size
+        if i.region.colour != want.colour or frac > PILE_AREA_FRAC:
+            continue
+        if frac <= FRAGMENT_AREA_FRAC:
+            out.append(i)
             continue
         c = cues(i.region.mask, rgb)
         if c.rect_fill < PILE_FILL or c.ellipse_iou < PILE_ELLIPSE:

@@ -1,7 +1,8 @@
 """The simulator's truth of the sweep, lift and take-off tasks, judged the way the tasks are defined.
 
   sweep     how many of the named parts (the scene's objects the target phrase names) have their centre over
-            the container's floor (inside its walls, below their top): done when at least 80 % are
+            the container's floor (inside its walls, lip included; resting there, on it or on other parts, not
+            higher than a part's length above the walls' top): done when at least 80 % are
   lift      the object touches nothing but the fingers and its lowest point is at least 1 cm above the table
             (the paper's "lifted clear"): done when both hold
   take off  the object touches neither its support nor anything but the table (and maybe the fingers) and
@@ -104,7 +105,7 @@ def _sweep(world: SimWorld, instr: Instruction) -> TaskTruthRecord:
     for o in parts:
         centre = world.data.geom_xpos[_geoms(world, o.name)].mean(axis=0)
         x, y, z = T[:3, :3].T @ (centre - T[:3, 3])
-        inside += abs(x) <= dx / 2 - DUSTPAN_WALL_M and abs(y) <= dy / 2 - DUSTPAN_WALL_M and z < wall
+        inside += abs(x) <= dx / 2 - DUSTPAN_WALL_M and abs(y) <= dy / 2 - DUSTPAN_WALL_M and z < wall + o.height_m
     need = math.ceil(SWEPT_FRACTION * len(parts) - 1e-9)
     return TaskTruthRecord(
         action="sweep",

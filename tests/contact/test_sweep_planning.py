@@ -16,25 +16,37 @@ from safety.robot_model import RobotModel
 STEP = 0.004
 
 
-def box_points(centre, size, yaw: float = 0.0, faces: str = "top+x") -> np.ndarray:
-    """Points on a box's top and +x side (what a camera at +x, above, sees), at its pose on the table."""
-    sx, _, sz = size
-    xs, ys, zs = (np.arange(-a / 2, a / 2 + 1e-9, STEP) for a in size)
-    top = np.array([(x, y, sz / 2) for x in xs for y in ys])
-    side = np.array([(sx / 2, y, z) for y in ys for z in zs])
-    pts = np.vstack([top, side] if "+x" in faces else [top])
+CAMERA = np.array([1.1, 0.0, 0.8])
+
+
+def box_points(centre, size, yaw: float = 0.0, faces: str = "seen") -> np.ndarray:
+    """Points on a box's faces the camera (at CAMERA) sees, or on its top alone (faces="top"), at its pose."""
     c, s = np.cos(yaw), np.sin(yaw)
     R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-    return pts @ R.T + np.asarray(centre)
+    centre = np.asarray(centre, dtype=float)
+    grids = [np.arange(-a / 2, a / 2 + 1e-9, STEP) for a in size]
+    out = []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            normal = R[:, axis] * sign
+            if (faces == "top" and not (axis == 2 and sign > 0)) or normal @ (CAMERA - centre) <= 0 or normal[2] < -0.5:
+                continue
+            u, v = (k for k in range(3) if k != axis)
+            pts = np.zeros((len(grids[u]) * len(grids[v]), 3))
+            pts[:, u] = np.repeat(grids[u], len(grids[v]))
+            pts[:, v] = np.tile(grids[v], len(grids[u]))
+            pts[:, axis] = sign * size[axis] / 2
+            out.append(pts)
+    return np.vstack(out) @ R.T + centre
 
 
 def brush(at=(0.62, 0.2), yaw: float = 0.0) -> np.ndarray:
     """A brush like the sim's: a 50 x 120 x 30 mm head, a 150 mm handle reaching back (-x) 14-42 mm up."""
     c, s = np.cos(yaw), np.sin(yaw)
-    head = box_points((0, 0, 0.015), (0.05, 0.12, 0.03))
-    handle = box_points((-0.025 - 0.075, 0, 0.028), (0.15, 0.022, 0.028))
     R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-    return np.vstack([head, handle]) @ R.T + [*at, 0.0]
+    head = box_points(R @ (0, 0, 0.015) + [*at, 0], (0.05, 0.12, 0.03), yaw)
+    handle = box_points(R @ (-0.025 - 0.075, 0, 0.028) + [*at, 0], (0.15, 0.022, 0.028), yaw)
+    return np.vstack([head, handle])
 
 
 def dustpan(at=(0.44, -0.21), yaw: float = np.pi / 2) -> np.ndarray:
@@ -118,7 +130,8 @@ def test_held_tool_box_is_the_tool_in_its_own_frame(robot):
 def test_strokes_cover_the_group_and_end_inside_the_dustpan(robot):
     group, tool, container = screws(), brush(), dustpan()
     plan, scene, safety = sweep_plan(robot, group, tool, container)
-    assert 1 <= len(plan.strokes) <= 2 and plan.T_contact[2, 2] < -0.95
+    assert len(plan.strokes) == SweepConfig().passes * len(plan.lanes_m) and 1 <= len(plan.lanes_m) <= 2
+    assert plan.T_contact[2, 2] < -0.95 and abs(plan.T_contact[:3, 1] @ [1.0, 0.0, 0.0]) < 0.35  # across the handle
     cfg = SweepConfig()
     world = CollisionWorld(robot, safety, points=scene, held=plan.held, held_padding_m=cfg.tool_padding_m)
     for stroke in plan.strokes:
