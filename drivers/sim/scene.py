@@ -588,27 +588,43 @@ def _box_geom(body: ET.Element, o: SceneObject, index: int, material: str, half:
 
 
 def _add_cup(body: ET.Element, asset: ET.Element, o: SceneObject, mat: str) -> None:
-    """An open cylinder: a bottom and a round wall."""
+    """An open cylinder: a bottom and a round wall. The bottom's disc is seen; the cup stands on a square foot
+    inside it (box on the table: an analytic contact, where a disc's costs the physics a general convex one)."""
     r, h = o.radius_m, o.height_m or DEFAULT_HEIGHT_M["cup"]
     w = CUP_WALL_M
-    _geom(body, o, 0, mat, type="cylinder", size=_f((r, w / 2)), pos=_f((0, 0, w / 2)), mass=_f(0.6 * o.mass_kg))
-    _ring(body, o, mat, r - w / 2, h - w, w, w, first_index=1, n=CUP_SEGMENTS)
+    visual = {"contype": "0", "conaffinity": "0"}
+    ET.SubElement(
+        body,
+        "geom",
+        name=f"{o.name}_g0",
+        type="cylinder",
+        size=_f((r, w / 2)),
+        pos=_f((0, 0, w / 2)),
+        material=mat,
+        mass=_f(0.3 * o.mass_kg),
+        **visual,
+    )
+    foot = r * math.cos(math.pi / 4) - 0.002
+    _box_geom(body, o, 1, mat, (foot, foot, w / 2), (0, 0, w / 2), mass=_f(0.3 * o.mass_kg))
+    _ring(body, o, mat, r - w / 2, h - w, w, w, first_index=2, n=CUP_SEGMENTS)
 
 
 def _add_screw(body: ET.Element, asset: ET.Element, o: SceneObject, mat: str) -> None:
-    """A shank lying along x with a wider head at +x: it rolls in a circle about its head, as screws do."""
+    """A shank lying along x with a wider head at +x: it rolls in a circle about its head, as screws do. A capsule
+    and a ball (analytic contacts: a dozen screws on the table would cost the physics more than the robot as
+    cylinders)."""
     r, length = o.radius_m, o.height_m
-    head_r, head_len = SCREW_HEAD[0] * r, SCREW_HEAD[1] * length
-    shank = length - head_len
+    head_r = SCREW_HEAD[0] * r
+    shank = length - head_r - r  # the capsule's cylinder part: from the shank's round tip to the head's middle
     rolls = {"condim": "6", "friction": SCREW_FRICTION}
     _geom(
         body,
         o,
         0,
         mat,
-        type="cylinder",
+        type="capsule",
         size=_f((r, shank / 2)),
-        pos=_f((-length / 2 + shank / 2, 0, head_r)),
+        pos=_f((-length / 2 + r + shank / 2, 0, head_r)),
         euler=_f((0, math.pi / 2, 0)),
         mass=_f(0.8 * o.mass_kg),
         **rolls,
@@ -618,10 +634,9 @@ def _add_screw(body: ET.Element, asset: ET.Element, o: SceneObject, mat: str) ->
         o,
         1,
         mat,
-        type="cylinder",
-        size=_f((head_r, head_len / 2)),
-        pos=_f((length / 2 - head_len / 2, 0, head_r)),
-        euler=_f((0, math.pi / 2, 0)),
+        type="sphere",
+        size=_f(head_r),
+        pos=_f((length / 2 - head_r, 0, head_r)),
         mass=_f(0.2 * o.mass_kg),
         **rolls,
     )

@@ -262,7 +262,8 @@ def _lanes(
                 f"a stroke {c * 1000:+.0f} mm across the group's middle would slant {slant:.0f} deg to end between the "
                 f"container's walls (at most {cfg.max_turn_deg:.0f})"
             )
-        lanes.append(_Lane(f.point(s_start, c), f.point(s_end, end), c))
+        corner = (half + cfg.side_gap_m / 2) * np.sin(np.radians(slant))  # a slanted head's corner leads
+        lanes.append(_Lane(f.point(s_start, c), f.point(s_end - corner, end), c))
     _check_lanes_free(lanes, container, scene, shape, cfg)
     return lanes
 

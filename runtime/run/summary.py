@@ -137,11 +137,21 @@ class GroupCountRecord(Section):
     required: int
 
 
+class LiftCheckRecord(Section):
+    """A lift's verification: how the object's seen points rose, against the goal."""
+
+    lowest_rise_m: float  # its lowest seen point
+    centre_rise_m: float  # its seen centre
+    goal_rise_m: float
+    error_m: float  # seen centre to the goal's
+
+
 class Verification(Section):
     ok: bool
     reason: str
     comparison: Comparison | None = None  # absent when no achieved motion could be compared
     group_count: GroupCountRecord | None = None  # a sweep's parts counted in the container
+    lift: LiftCheckRecord | None = None  # a lift's rise
 
 
 class TaskTruthRecord(Section):

@@ -10,9 +10,10 @@ from pipeline.grounding.achieved import measure_achieved
 from pipeline.grounding.compare import compare, rotation_deg
 from pipeline.perception.features import FeatureExtractor
 from pipeline.perception.segmenter import Segmenter
+from runtime.run.contact import instruction_action
 from runtime.run.context import RunContext
 from runtime.run.summary import AchievedRecord, MotionRecord, Verification
-from runtime.run.verify_group import verify_group
+from runtime.run.verify_task import verify_group, verify_lift
 
 CAMERA_STILL_MM, CAMERA_STILL_DEG = 2.0, 0.2  # verification needs both captures from one camera pose
 
@@ -34,6 +35,8 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         )
     if goal.group_size is not None:  # several parts swept into a container: counted there
         return verify_group(ctx, after, segmenter)
+    if instruction_action(ctx.instruction) == "lift":  # held in the fingers: lifted clear, where the goal puts it
+        return verify_lift(ctx, after, segmenter)
     detections = segmenter.segment(after.rgb, goal.target)
     if len(detections) != 1:
         return Verification(ok=False, reason=f"target '{goal.target}' found {len(detections)} times after execution")
