@@ -17,6 +17,7 @@ import numpy as np
 
 from drivers.description import load_robot_spec
 from drivers.types import RGBDFrame
+from motion.clock import Clock
 from motion.executor import ExecutionRefused, Executor, ExecutorConfig
 from motion.limits import MotionLimits
 from motion.manipulation.chain import ManipulationChain, ManipulationRefused
@@ -32,6 +33,7 @@ from pipeline.perception.segmenter import Segmenter
 from pipeline.reasoning.factory import build_reasoner, build_segmenter
 from pipeline.reasoning.reasoner import Reasoner, synthesize
 from pipeline.reasoning.types import ReasoningError
+from runtime.devices import Devices
 from runtime.messaging.messages import PlanSummary
 from runtime.run.contact import contact_plans, instruction_action
 from runtime.run.context import RunContext, StageError
@@ -59,8 +61,13 @@ class CaptureListener(Protocol):
 class PipelineStages:
     """Stateless between runs except for loaded backends (built once, on first use)."""
 
-    def __init__(self, listeners: Sequence[CaptureListener] = ()) -> None:
+    def __init__(
+        self, listeners: Sequence[CaptureListener] = (), clock: Callable[[Devices], Clock] | None = None
+    ) -> None:
+        """clock: the executor's clock for the run's devices (default the wall clock); a stepped simulator's
+        (drivers.sim.SteppedClock) makes a run independent of the machine's load, for benches."""
         self.listeners = tuple(listeners)
+        self.clock = clock
         self._reasoner: Reasoner | None = None
         self._features: FeatureExtractor | None = None
         self._segmenter: Segmenter | None = None
@@ -206,7 +213,9 @@ class PipelineStages:
     def execute(self, ctx: RunContext) -> None:
         dev, profile, manipulation = ctx.devices, ctx.profile, ctx.manipulation
         limits = MotionLimits.from_config(profile.safety, load_robot_spec())
-        executor = Executor(dev.arm, ExecutorConfig.from_configs(profile.robot, profile.safety), limits, dev.gripper)
+        clock = self.clock(dev) if self.clock is not None else None
+        config = ExecutorConfig.from_configs(profile.robot, profile.safety)
+        executor = Executor(dev.arm, config, limits, dev.gripper, clock=clock)
         ctx.executor = executor
         reports: list[PhaseRecord] = []
         for name, approved in zip(manipulation.phase_names, manipulation.phases, strict=True):
@@ -240,7 +249,11 @@ class PipelineStages:
 
     # -- verification -------------------------------------------------------------------------------------
     def verify(self, ctx: RunContext) -> Verification:
-        time.sleep(SETTLE_S)  # the object comes to rest after the release (physical time: nothing to wait on)
+        if self.clock is None:
+            time.sleep(SETTLE_S)  # the object comes to rest after the release (physical time: nothing to wait on)
+        else:
+            clock = self.clock(ctx.devices)
+            clock.sleep_until(clock.now() + SETTLE_S)
         after = ctx.frame1 = self._capture(ctx, "after")
         if self._segmenter is None:
             self._segmenter = build_segmenter(ctx.profile.pipeline)
