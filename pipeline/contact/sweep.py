@@ -49,8 +49,8 @@ class SweepConfig:
     """Stroke geometry [m, deg]; the defaults suit a hand brush and a dustpan."""
 
     start_gap_m: float = 0.02  # head's front edge behind the group's nearest part at a stroke's start
-    wall_gap_m: float = 0.02  # head's front edge short of the container's far wall at its end
-    side_gap_m: float = 0.015  # head clear of the container's side walls (the gate sees points as 1 cm cells)
+    wall_gap_m: float = 0.025  # head's front edge short of the container's far wall at its end (1 cm cells)
+    side_gap_m: float = 0.02  # head clear of the container's side walls (the gate sees points as 1 cm cells)
     clearance_m: float = 0.004  # the tool's lowest point above the table along a stroke
     travel_m: float = 0.07  # the tool's lowest point above the table between strokes
     edge_margin_m: float = 0.015  # of the head's width, each side, not counted on to carry parts along ...

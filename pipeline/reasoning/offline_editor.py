@@ -180,16 +180,17 @@ class OfflineEditor(ImageEditor):
         floor = container_floor(object_points(depth_m, K, mask_y)[0], plane)
         parts = [object_points(depth_m, K, d.mask)[0] for d in found]
         centres = np.array([footprint(pts, plane).centre for pts in parts])
-        radius = max(footprint(pts, plane).radius_m for pts in parts)
+        # a part's centre keeps half its reach from the floor's edge: a long part may lie along it
+        radius = 0.5 * max(footprint(pts, plane).radius_m for pts in parts)
         group_centre = centres.mean(axis=0)
-        for s in (1.0, 0.8, 0.6, 0.4, 0.2, 0.0):
+        for s in (1.0, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.0):  # drawn together no more than it must
             goals = floor.centre + s * (centres - group_centre)
             if floor.holds(goals, radius):
                 break
         else:
             raise GeometryError(
-                f"the {instr.target} do not fit on the {instr.reference}'s floor (parts {2 * radius * 1000:.0f} mm "
-                f"across, floor {floor.size_m * 1000:.0f} mm)"
+                f"the {instr.target} do not fit on the {instr.reference}'s floor (parts {4 * radius * 1000:.0f} mm "
+                f"long, floor {floor.size_m * 1000:.0f} mm across)"
             )
         shifts = goals - centres + floor.height_m * plane.n
         moved = np.concatenate([pts + shift for pts, shift in zip(parts, shifts, strict=True)])
