@@ -50,8 +50,8 @@ def brush(at=(0.62, 0.2), yaw: float = 0.0) -> np.ndarray:
 
 
 def dustpan(at=(0.44, -0.21), yaw: float = np.pi / 2) -> np.ndarray:
-    """A dustpan's walls (25 mm) and floor, open towards its +x (yaw pi/2: towards +y)."""
-    depth, width, h = 0.15, 0.19, 0.025
+    """A dustpan like the sim's: walls (25 mm) and floor, open towards its +x (yaw pi/2: towards +y)."""
+    depth, width, h = 0.15, 0.26, 0.025
     parts = [
         box_points((-depth / 2 + 0.003, 0, h / 2), (0.006, width, h)),
         box_points((-0.015, width / 2 - 0.003, h / 2), (depth - 0.03, 0.006, h)),

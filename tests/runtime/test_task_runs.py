@@ -97,10 +97,9 @@ def _scene_variant(tmp_path, change) -> str:
     ids=["tool out of reach", "dustpan turned away"],
 )
 def test_a_sweep_that_cannot_be_done_is_refused_before_anything_moves(sim_config_path, tmp_path, change, why):
-    scene = _scene_variant(tmp_path, change)
-    result, before, after = stepped_run(
-        sim_config_path, scene, 3, "sweep the screws into the dustpan", tmp_path / "run"
-    )
+    scene = _scene_variant(tmp_path, change)  # (a dustpan seen from its back is a green box to the offline segmenter)
+    sentence = "sweep the screws into the green dustpan"
+    result, before, after = stepped_run(sim_config_path, scene, 3, sentence, tmp_path / "run")
     assert result.status == State.FAILED and result.reason.startswith("plan: cannot sweep:"), result.reason
     assert why in result.reason
     assert result.summary.contact.mode == "sweep" and result.summary.execution == []
