@@ -1,27 +1,22 @@
-"""Whole `goalvla run`s on generated scenes (drivers.sim.generate), each a fresh process through the real command
-line, reported by the stage that ended them.
+"""Whole runs on generated scenes (drivers.sim.generate) as a `goalvla eval` campaign (task `gen`: each seed's
+scene and its own instruction, runtime.campaign), reported by action, with stage 1 judged against the simulator.
 
-For each seed: the case's scene (`--scene gen:SEED`) and instruction run with `--yes --record DIR`. A sentence
-outside the offline grammar must be refused before anything starts (exit 2). For the others: stage 1 (capture and
-reasoning: segmentation, editing, reflection) passes when the run reaches GROUNDING with the initial target mask on
-the case's target object (the simulator's own segmentation of the first capture, the lid body for "close");
-later failures are counted by the state they ended in (grounding, planning = contact + motion + gate, executing,
-verifying); "done (truth)" is the simulator's verdict: the target's centre within 3 cm of where the goal motion
-puts it, a lid within 15 deg of shut (the verification's tolerances; a centre cannot judge a turn in place).
-Use seeds you did not tune on for the figures.
+A sentence outside the offline grammar must be refused before anything starts (the campaign counts it REFUSED).
+For the others: stage 1 (capture and reasoning: segmentation, editing, reflection) passes when the run reaches
+GROUNDING with the initial target mask on the case's target object (the simulator's own segmentation of the first
+capture, the lid body for "close"); the campaign's table gives the rest: verified, done by the simulator's truth
+(runtime.campaign.truth: the target's centre within 3 cm of where the goal motion puts it, a lid within 15 deg of
+shut), false successes and failures, and the state each failure ended in. Use seeds you did not tune on.
 
-    python bench/generated_runs.py --seeds 2000:2040 --out gen.json [--runs-dir runs/gen] [--quick]
+    python bench/generated_runs.py --seeds 2000:2040 --out gen.json [--runs-dir campaigns/gen] [--workers 2] [--quick]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
-import time
-from collections import Counter, defaultdict
 from pathlib import Path
 
 # bench/ holds runtime.py, which would shadow the runtime package: drop this folder from the import path
@@ -31,21 +26,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's 
 import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 from rich.console import Console  # noqa: E402
-from rich.table import Table  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / "configs" / "sim.yaml"
 TARGETS = {"stage1_accepts_in_grammar": 0.95, "outside_grammar_refused": 1.0}
-TRUTH_TOL_M, LID_SHUT_DEG = 0.03, 15.0  # the verification's own tolerances (position, rotation)
-STAGES = ("capturing", "reasoning", "grounding", "planning", "awaiting_confirm", "executing", "verifying")
-
-
-def free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+IOU_MIN = 0.4  # the run's initial mask on the right object
 
 
 def true_target_mask(seed: int, target: str, lid: bool) -> np.ndarray:
@@ -60,115 +45,72 @@ def true_target_mask(seed: int, target: str, lid: bool) -> np.ndarray:
         return camera.body_mask(f"{target}_lid") if lid else camera.object_masks()[target]
 
 
-def run_case(seed: int, runs_dir: Path, profile: Path) -> dict:
-    from drivers.sim.generate import generate_case
+def stage1(result, run_dir: Path) -> dict:
+    """Whether stage 1 found the case's target: the run reached grounding with its mask on the true object."""
+    from runtime.run.summary import RunSummary
 
-    case = generate_case(seed)
-    task = case.task
-    record = runs_dir / f"gen-{seed}"
-    cmd = [sys.executable, "-m", "runtime.commands.cli", "run", "--config", str(profile), "--scene", case.scene_name]
-    cmd += ["--instruction", task.instruction, "--yes", "--record", str(record)]
-    t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=600)
-    out = {
-        "seed": seed,
-        "instruction": task.instruction,
-        "action": task.action + (f" {task.relation}" if task.relation else ""),
-        "target": task.target,
-        "exit_code": proc.returncode,
-        "wall_s": round(time.perf_counter() - t0, 1),
-    }
-    if not task.in_grammar:
-        out["outcome"] = "refused before start" if proc.returncode == 2 else "NOT REFUSED"
-        return out
-    summary_path = record / "summary.json"
-    if not summary_path.exists():
-        out |= {"outcome": "no record", "reason": (proc.stderr or proc.stdout)[-600:]}
-        return out
-    summary = json.loads(summary_path.read_text())
-    reached = [t["to"].lower() for t in summary.get("transitions", [])]
-    failed_in = next((t["from"].lower() for t in summary["transitions"] if t["to"] == "FAILED"), None)
-    out |= {"status": summary["status"], "reason": summary.get("reason", ""), "failed_in": failed_in}
-    stage1 = "grounding" in reached
-    if stage1:
-        mask = np.asarray(Image.open(record / "reasoning" / "mask_init.png").convert("L")) > 127
-        truth = true_target_mask(seed, task.target, task.action == "close")
-        iou = float((mask & truth).sum() / max((mask | truth).sum(), 1))
-        out["target_iou"] = round(iou, 3)
-        stage1 = iou >= 0.4
-        out["wrong_target"] = not stage1
-    out["stage1_ok"] = stage1
-    truth = summary.get("sim_truth") or {}
-    if task.action == "close":
-        angle = truth.get(f"{task.target}_hinge [deg]")
-        out["done_truth"] = angle is not None and angle <= LID_SHUT_DEG
-    else:
-        err = truth.get("target_goal_error_m")
-        out["done_truth"] = truth.get("target") == task.target and err is not None and err <= TRUTH_TOL_M
-    out["verified"] = summary["status"] == "DONE"
-    return out
-
-
-def outcome(r: dict) -> str:
-    if "outcome" in r:
-        return r["outcome"]
-    if r.get("wrong_target"):
-        return "stage 1: wrong target"
-    if not r["stage1_ok"]:
-        return f"failed in {r['failed_in']}"
-    if r["verified"]:
-        return "verified" + ("" if r["done_truth"] else " (FALSE SUCCESS)")
-    return f"failed in {r['failed_in']}" + (" (done by truth)" if r["done_truth"] else "")
+    summary_path = run_dir / "summary.json"
+    if result.status == "REFUSED" or not summary_path.is_file():
+        return {"stage1_ok": False}
+    summary = RunSummary.model_validate_json(summary_path.read_text())
+    if "GROUNDING" not in [t.state for t in summary.transitions]:
+        return {"stage1_ok": False}
+    case = result.case
+    mask = np.asarray(Image.open(run_dir / "reasoning" / "mask_init.png").convert("L")) > 127
+    truth = true_target_mask(case.seed, case.target, case.action == "close")
+    iou = float((mask & truth).sum() / max((mask | truth).sum(), 1))
+    return {"stage1_ok": iou >= IOU_MIN, "target_iou": round(iou, 3), "wrong_target": iou < IOU_MIN}
 
 
 def main() -> int:
+    from runtime.campaign.campaign import CampaignSpec, run_campaign
+    from runtime.campaign.pools import ProcessPool
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="2000:2040", help="A:B, the seeds A..B-1")
     parser.add_argument("--quick", action="store_true", help="the first 4 seeds only")
-    parser.add_argument("--runs-dir", type=Path, default=None)
+    parser.add_argument("--runs-dir", type=Path, default=None, help="the campaign folder (kept; resumable)")
+    parser.add_argument("--workers", type=int, default=1, help="runs at a time")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     a, b = (int(x) for x in args.seeds.split(":"))
-    seeds = list(range(a, min(b, a + 4) if args.quick else b))
+    seeds = tuple(range(a, min(b, a + 4) if args.quick else b))
     console = Console()
+    spec = CampaignSpec(name="generated", config=str(CONFIG), tasks=("gen",), seeds=seeds, trials=1)
     with tempfile.TemporaryDirectory() as tmp:
-        runs_dir = args.runs_dir or Path(tmp) / "runs"
-        profile = Path(tmp) / "profile.yaml"  # own loopback port: other runs on this machine keep theirs
-        profile.write_text(f"include: {CONFIG}\nruntime: {{zenoh: {{endpoint: tcp/127.0.0.1:{free_port()}}}}}\n")
-        results = []
-        for seed in seeds:
-            r = run_case(seed, runs_dir, profile)
-            r["outcome"] = outcome(r)
-            console.print(f"{seed}: {r['instruction']!r} -> {r['outcome']} ({r['wall_s']} s)")
-            results.append(r)
-    table = Table(title=f"generated runs, seeds {a}..{seeds[-1]}")
-    by_action: dict[str, Counter] = defaultdict(Counter)
-    for r in results:
-        by_action[r["action"]][r["outcome"]] += 1
-    outcomes = sorted({r["outcome"] for r in results})
-    table.add_column("action")
-    for o in outcomes:
-        table.add_column(o)
-    for action in sorted(by_action):
-        table.add_row(action, *(str(by_action[action][o] or "") for o in outcomes))
-    console.print(table)
-    in_grammar = [r for r in results if "stage1_ok" in r or r.get("outcome") == "no record"]
-    outside = [r for r in results if r["outcome"] in ("refused before start", "NOT REFUSED")]
-    stage1 = sum(bool(r.get("stage1_ok")) for r in in_grammar) / max(len(in_grammar), 1)
-    refused = sum(r["outcome"] == "refused before start" for r in outside) / max(len(outside), 1)
+        folder = args.runs_dir or Path(tmp) / "generated"
+        pool = ProcessPool(args.workers)
+        try:
+            outcome = run_campaign(spec, folder, pool, console)
+        finally:
+            pool.close()
+        runs = []
+        for r in outcome.results:
+            row = {"seed": r.case.seed, "instruction": r.case.instruction, "action": r.case.action,
+                   "target": r.case.target, "status": r.status, "failed_in": r.failed_in, "reason": r.reason[:300],
+                   "verified": r.verified, "done_truth": r.truly_done, "wall_s": r.wall_s}  # fmt: skip
+            if r.case.in_grammar:
+                row |= stage1(r, folder / "runs" / r.case.id)
+            runs.append(row)
+    in_grammar = [r for r, row in zip(outcome.results, runs, strict=True) if r.case.in_grammar]
+    outside = [r for r in outcome.results if not r.case.in_grammar]
+    accepted = sum(row.get("stage1_ok", False) for row in runs) / max(len(in_grammar), 1)
+    table = outcome.table
     measured = {
-        "stage1_accepts_in_grammar": round(stage1, 3),
-        "outside_grammar_refused": round(refused, 3),
+        "stage1_accepts_in_grammar": round(accepted, 3),
+        "outside_grammar_refused": round(sum(r.status == "REFUSED" for r in outside) / max(len(outside), 1), 3),
         "in_grammar_runs": len(in_grammar),
-        "verified": sum(bool(r.get("verified")) for r in in_grammar),
-        "done_truth": sum(bool(r.get("done_truth")) for r in in_grammar),
-        "false_successes": sum(bool(r.get("verified")) and not r.get("done_truth") for r in in_grammar),
-        "failed_in": dict(Counter(r.get("failed_in") or "-" for r in in_grammar if not r.get("verified"))),
-        "median_wall_s": float(np.median([r["wall_s"] for r in results])) if results else None,
+        "verified": sum(r.verified for r in in_grammar),
+        "done_truth": sum(r.truly_done is True for r in in_grammar),
+        "false_successes": table.total.false_successes,
+        "false_failures": table.total.false_failures,
+        "failed_in": table.total.failed_in,
+        "median_wall_s": table.total.median_wall_s,
+        "by_action": [row.model_dump() for row in table.by_action],
     }
     met = {k: measured[k] >= v for k, v in TARGETS.items()}
-    console.print(measured, met)
-    args.out.write_text(json.dumps({"targets": TARGETS, "met": met, "measured": measured, "runs": results}, indent=1))
+    console.print({k: v for k, v in measured.items() if k != "by_action"}, met)
+    args.out.write_text(json.dumps({"targets": TARGETS, "met": met, "measured": measured, "runs": runs}, indent=1))
     return 0
 
 

@@ -92,6 +92,9 @@ class RuntimeConfig(StrictModel):
     )
     verify_position_tol_m: float = Field(default=0.03, gt=0, le=1.0, description="achieved vs goal object translation")
     verify_rotation_tol_deg: float = Field(default=15.0, gt=0, le=180, description="achieved vs goal object rotation")
+    rerun_recording: bool = Field(
+        default=True, description="write run.rrd (a Rerun recording) into each run folder when the run has ended"
+    )
     estop_latch_file: Path | None = Field(
         default=None,
         description="an e-stop writes it and later runs start ESTOPPED until a reset removes it (set on real robots)",

@@ -236,6 +236,92 @@ def _refuse_unstartable(profile, instruction: str | None) -> None:
         _fail("cannot start:\n  " + "\n  ".join("\n  ".join(p.splitlines()) for p in problems))
 
 
+def _seeds(text: str) -> list[int]:
+    """N (seeds 0..N-1, or from --seed-start) or A:B (seeds A..B-1)."""
+    try:
+        if ":" in text:
+            a, b = (int(x) for x in text.split(":"))
+            return list(range(a, b))
+        return list(range(int(text)))
+    except ValueError:
+        _fail(f"--seeds: give a count N or a range A:B, got {text!r}")
+
+
+@app.command("eval")
+def eval_campaign(
+    out: Annotated[Path, typer.Option(help="campaign folder (runs/, results.json/.md/.html); reused to resume")],
+    config: ConfigOption = DEFAULT_CONFIG,
+    tasks: Annotated[
+        str, typer.Option(help="comma-separated: named tasks (tomato_pan, block_scale, ...), gen, gen-all")
+    ] = "tomato_pan,block_scale,bottle_standup,close_lid",
+    seeds: Annotated[str, typer.Option(help="N (seeds seed-start.. +N) or A:B")] = "10",
+    seed_start: Annotated[int, typer.Option(help="first seed when --seeds is a count")] = 0,
+    trials: Annotated[int, typer.Option(min=1, help="trials per seed")] = 1,
+    workers: Annotated[int, typer.Option(min=1, help="runs at a time (processes here, or CPUs of --ray local)")] = 2,
+    ray: Annotated[
+        str | None, typer.Option("--ray", help="run on the Ray cluster at ADDRESS, or 'local' to start one here")
+    ] = None,
+    recording: Annotated[bool, typer.Option("--recording/--no-recording", help="run.rrd in each run")] = True,
+) -> None:
+    """A campaign: every (task, seed, trial) a whole run with its own record; a results table like the paper's.
+
+    Resumable: the same command skips the runs already done. Exit 0 when every run has a result (whatever it is),
+    1 when some crashed (they run again on resume), 2 unusable arguments."""
+    from rich.console import Console
+
+    from runtime.campaign.campaign import CampaignError, CampaignSpec, run_campaign
+    from runtime.campaign.pools import ProcessPool, RayPool
+
+    profile = _load(config)
+    if not profile.robot.simulated or profile.robot.kind != "sim":
+        _fail(f"{config}: campaigns run on the simulator (robot.kind sim); it drives {profile.robot.kind!r}")
+    seed_list = _seeds(seeds) if ":" in seeds else [seed_start + s for s in _seeds(seeds)]
+    spec = CampaignSpec(
+        name=out.resolve().name,
+        config=str(config.resolve()),
+        tasks=tuple(t.strip() for t in tasks.split(",") if t.strip()),
+        seeds=tuple(seed_list),
+        trials=trials,
+        rerun_recording=recording,
+    )
+    try:
+        spec.cases()
+    except CampaignError as e:
+        _fail(str(e))
+    _writable(out, "the campaign folder (--out)", folder=True)
+    pool = RayPool(ray, workers) if ray else ProcessPool(workers)
+    try:
+        outcome = run_campaign(spec, out, pool, Console())
+    except CampaignError as e:
+        _fail(str(e))
+    finally:
+        pool.close()
+    raise typer.Exit(1 if outcome.errors else 0)
+
+
+@app.command()
+def view(
+    run_dir: Annotated[Path, typer.Argument(help="a run folder (with run.rrd)")],
+    web: Annotated[
+        bool | None,
+        typer.Option("--web/--native", help="force the web or the native viewer (default: native with a display)"),
+    ] = None,
+    bind: Annotated[str, typer.Option(help="web viewer address; keep the loopback unless you know why")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="web viewer HTTP port")] = 9090,
+    grpc_port: Annotated[int, typer.Option(help="port the web viewer reads the recording from")] = 9876,
+) -> None:
+    """Open a run's Rerun recording: the native viewer, or the web viewer on the loopback without a display."""
+    from runtime.commands.view import ViewError, environment, plan_view
+    from runtime.commands.view import view as open_viewer
+
+    env = environment()
+    try:
+        plan = plan_view(run_dir, env, None if web is None else ("web" if web else "native"), bind, port, grpc_port)
+        raise typer.Exit(open_viewer(plan, env, typer.echo))
+    except ViewError as e:
+        _fail(str(e))
+
+
 @app.command()
 def estop(
     config: ConfigOption = DEFAULT_CONFIG,

@@ -8,12 +8,14 @@ must not go on.
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 from drivers.types import RGBDFrame
 from motion.executor import Executor
 from motion.manipulation.phases import ManipulationPlan
+from motion.report import ExecutionReport
+from pipeline.contact.clouds import SceneClouds
 from pipeline.contact.types import ContactPlan
 from pipeline.grounding.types import ObjectMotion
 from pipeline.reasoning.types import GoalState
@@ -38,11 +40,13 @@ class RunContext:
     frame0: RGBDFrame | None = None  # the capture before the run
     goal: GoalState | None = None  # reasoning
     motion: ObjectMotion | None = None  # grounding (ok)
+    clouds: SceneClouds | None = None  # planning: the target's and the scene's points (base frame)
     contact: ContactPlan | None = None  # the contact the plan uses
     manipulation: ManipulationPlan | None = None  # its gate-approved phases
     plan: PlanSummary | None = None  # what the operator confirms
     frame1: RGBDFrame | None = None  # the capture after execution
     executor: Executor | None = None  # streaming the phases, while execution runs
+    executed: list[tuple[str, ExecutionReport]] = field(default_factory=list)  # (phase, its report), as streamed
     executing: bool = False  # the run reached EXECUTING: a run that ends badly from here must stop the motion
 
 

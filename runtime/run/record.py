@@ -6,19 +6,32 @@ understood from its folder alone, and every image through here, so the console s
 
 from __future__ import annotations
 
-import html
-import json
 import logging
 import os
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
+from drivers.description import load_robot_spec
+from motion.executor import ExecutorConfig
+from motion.limits import MotionLimits
 from runtime.messaging.bus import Bus
+from runtime.run import plots
+from runtime.run.clearance import clearance_along
+
+# Rerun loads with the runtime, before any run: its import takes about a second and holds other threads for up to
+# ~0.1 s at a time, which must not happen while a run streams or its deadman heartbeat is watched
+from runtime.run.recording import write_recording
+from runtime.run.report import render_report
 from runtime.run.summary import RunSummary, TransitionRecord
+from runtime.run.trajectories import RunTrajectories
 from runtime.supervision.states import Transition
+
+if TYPE_CHECKING:  # the context holds this record
+    from runtime.run.context import RunContext
 
 log = logging.getLogger(__name__)
 
@@ -91,49 +104,92 @@ class RunRecord:
             publish_image(self.bus, name, bgr)
         return path
 
-    def finish(self, status: str, reason: str) -> Path:
+    def finish(self, status: str, reason: str, ctx: RunContext | None = None) -> Path:
+        """Write summary.json, then (from the ended run's context, when given) trajectories.npz, the plots,
+        run.rrd (runtime.rerun_recording) and report.html, and summary.json again with the seconds each took.
+        Nothing is done while the arm moves: the run has ended. A plot or the recording that fails is logged and
+        left out; the summary is already on disk."""
         summary = self.summary
         summary.status, summary.reason = status, reason
         summary.wall_s = round(time.monotonic() - self._t0, 3)
         summary.images = [f"{n}.png" for n in self.images]
         path = self.dir / "summary.json"
-        path.write_text(summary.model_dump_json(indent=2))
-        (self.dir / "report.html").write_text(render_report(summary))
+        self._write_summary(path)
+        drawn: list[tuple[str, str]] = []
+        seconds: dict[str, float] = {}
+        if ctx is not None:
+            t = time.perf_counter()
+            trajectories = self._trajectories(ctx)
+            seconds["trajectories"] = time.perf_counter() - t
+            t = time.perf_counter()
+            drawn = self._plots(ctx, trajectories)
+            seconds["plots"] = time.perf_counter() - t
+            if ctx.profile.runtime.rerun_recording:
+                t = time.perf_counter()
+                try:
+                    write_recording(ctx, summary, trajectories, self.dir)
+                except Exception:
+                    log.exception("run.rrd could not be written")
+                seconds["recording"] = time.perf_counter() - t
+        t = time.perf_counter()
+        (self.dir / "report.html").write_text(render_report(summary, drawn))
+        seconds["report"] = time.perf_counter() - t
+        summary.record_seconds = {k: round(v, 3) for k, v in seconds.items()}
+        self._write_summary(path)
         return path
 
+    def _write_summary(self, path: Path) -> None:
+        """Whole or not at all: a reader never sees half a summary."""
+        partial = path.with_name(f".{path.name}.partial")
+        partial.write_text(self.summary.model_dump_json(indent=2))
+        partial.replace(path)
 
-def _rows(mapping: dict) -> str:
-    return "".join(
-        f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(json.dumps(v))}</td></tr>" for k, v in mapping.items()
-    )
+    def _trajectories(self, ctx: RunContext) -> RunTrajectories | None:
+        if ctx.manipulation is None:
+            return None
+        try:
+            spec = load_robot_spec()
+            traj = RunTrajectories.of(ctx, MotionLimits.from_config(ctx.profile.safety, spec), spec.joint_names)
+            if ctx.clouds is not None:
+                from safety.robot_model import RobotModel
 
+                robot = RobotModel(spec)
+                traj = traj.with_clearance(
+                    [clearance_along(robot, p.positions, p.dt, ctx.clouds.scene) for p in traj.planned]
+                )
+            traj.save(self.dir)
+            return traj
+        except Exception:
+            log.exception("trajectories.npz could not be written")
+            return None
 
-def render_report(summary: RunSummary) -> str:
-    """A self-contained page (images referenced next to it) that a person can open from the run folder."""
-    status = summary.status
-    colour = {"DONE": "#1a7f37", "FAILED": "#b35900", "ESTOPPED": "#c00"}.get(status, "#555")
-    details = summary.model_dump(mode="json", exclude={"transitions", "images", "stage_seconds"}, exclude_none=True)
-    transitions = "".join(
-        f"<tr><td>{html.escape(t.previous)}</td><td>{html.escape(t.state)}</td><td>{html.escape(t.reason)}</td></tr>"
-        for t in summary.transitions
-    )
-    figures = "".join(
-        f'<figure><img src="{html.escape(name)}" alt="{html.escape(name)}"><figcaption>{html.escape(name)}'
-        "</figcaption></figure>"
-        for name in summary.images
-    )
-    return f"""<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>goalvla run {html.escape(summary.run_id)}</title>
-<style>body{{font-family:sans-serif;margin:2em;max-width:1200px}} table{{border-collapse:collapse;margin:1em 0}}
-td,th{{border:1px solid #ccc;padding:4px 8px;text-align:left;vertical-align:top;font-size:13px}}
-figure{{display:inline-block;margin:4px}} img{{max-width:380px}} .status{{color:{colour};font-size:1.6em}}</style>
-</head><body>
-<h1>Run {html.escape(summary.run_id)}</h1>
-<p class="status" id="status">{html.escape(status)}</p><p id="reason">{html.escape(summary.reason)}</p>
-<h2>Instruction</h2><p>{html.escape(summary.instruction)}</p>
-<h2>Seconds per stage</h2><table>{_rows(summary.stage_seconds)}</table>
-<h2>Transitions</h2><table><tr><th>from</th><th>to</th><th>reason</th></tr>{transitions}</table>
-<h2>Images</h2>{figures}
-<h2>Details</h2><table>{_rows(details)}</table>
-</body></html>
-"""
+    def _plots(self, ctx: RunContext, traj: RunTrajectories | None) -> list[tuple[str, str]]:
+        """(file, caption) of each plot drawn, in the report's order."""
+        profile = ctx.profile
+        wanted = [
+            ("plot_timeline.png", "Stage timeline", lambda p: plots.timeline_plot(self.summary, p)),
+        ]
+        if traj is not None:
+            wanted += [
+                ("plot_joints.png", "Joints against their limits, per phase", lambda p: plots.joints_plot(traj, p)),
+                (
+                    "plot_tracking.png",
+                    "Tracking error",
+                    lambda p: plots.tracking_plot(
+                        traj, profile.robot.tracking_error_max_rad, ExecutorConfig.tracking_lag_s, p
+                    ),
+                ),
+                (
+                    "plot_clearance.png",
+                    "Clearance from the scene and the table along the planned path",
+                    lambda p: plots.clearance_plot(traj, profile.safety.padding_m, p),
+                ),
+            ]
+        drawn = []
+        for name, caption, draw in wanted:
+            try:
+                if draw(self.dir / name) is not None:
+                    drawn.append((name, caption))
+            except Exception:
+                log.exception("%s could not be drawn", name)
+        return drawn

@@ -168,7 +168,7 @@ class Runtime:
             self.machine.remove_listener(record.on_transition)
             self._end_motion(ctx)
         state, reason = self.machine.state, self.machine.reason
-        record.finish(state.value, reason)
+        record.finish(state.value, reason, ctx)
         return RunResult(state, reason, run_dir, record.summary)
 
     def _sequence(self, ctx: RunContext) -> None:

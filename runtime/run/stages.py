@@ -185,7 +185,9 @@ class PipelineStages:
         """The best-ranked contact whose manipulation (`phases` of it) plans and passes the gate, and that
         manipulation."""
         profile, frame = ctx.profile, ctx.frame0
-        clouds = scene_clouds(frame, ctx.goal.mask_init, robot, q_start, workspace=profile.safety.workspace)
+        clouds = ctx.clouds = scene_clouds(
+            frame, ctx.goal.mask_init, robot, q_start, workspace=profile.safety.workspace
+        )
         chain = ManipulationChain(
             robot,
             robot_config=profile.robot,
@@ -225,6 +227,7 @@ class PipelineStages:
                 report = executor.execute(approved)
             except ExecutionRefused as e:
                 raise StageError(f"{name} phase refused by the executor: {e}") from e
+            ctx.executed.append((name, report))
             reports.append(PhaseRecord.of(name, report))
             ctx.record.summary.execution = list(reports)
             if report.status != "completed":

@@ -206,5 +206,7 @@ class RunSummary(Section):
     verification: Verification | None = None
     sim_truth: SimTruthRecord | None = None
     wall_s: float | None = None
+    # seconds spent after the run's end on its record: trajectories, plots, recording (run.rrd), report
+    record_seconds: dict[str, float] = Field(default_factory=dict)
     transitions: list[TransitionRecord] = Field(default_factory=list)
     images: list[str] = Field(default_factory=list)  # <name>.png in the run folder

@@ -30,7 +30,7 @@ def plan_sweep_stage(ctx: RunContext, robot: RobotModel, q_start: np.ndarray) ->
     goal, profile = ctx.goal, ctx.profile
     if goal.mask_tool is None or goal.mask_reference is None:
         raise StageError(f"sweep: reasoning named no tool ({goal.tool!r}) or no container ({goal.reference!r})")
-    clouds = scene_clouds(
+    clouds = ctx.clouds = scene_clouds(
         ctx.frame0, goal.mask_init | goal.mask_tool, robot, q_start, workspace=profile.safety.workspace
     )
     group, tool = _points(ctx, goal.mask_init), _points(ctx, goal.mask_tool)

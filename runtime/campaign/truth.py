@@ -1,0 +1,59 @@
+"""How the simulator judges whether a run really did its job, beside the run's own verdict (never used by it).
+
+A rule reads the case and the run's summary (its `sim_truth` section, runtime.sim_truth.listener) and answers
+True (done), False (not done) or None (cannot tell). The simulator's truth is taken at the capture that verifies:
+a run that ended before executing never moved anything, so it is not done; one that ended while executing has no
+truth (None). New tasks with their own truth (the
+fraction of screws in a dustpan) add a rule to RULES and a TaskSpec naming it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from runtime.campaign.cases import Case
+from runtime.run.summary import RunSummary
+
+POSITION_TOL_M = 0.03  # the verification's own tolerances (runtime.verify_position_tol_m / _rotation_tol_deg)
+LID_SHUT_DEG = 15.0
+
+Rule = Callable[[Case, RunSummary], bool | None]
+
+
+def _without_truth(summary: RunSummary) -> bool | None:
+    """No truth was taken: not done when the arm never moved, unknown when the run stopped while it moved."""
+    moved = any(t.state == "EXECUTING" for t in summary.transitions)
+    return None if moved else False
+
+
+def goal_error(case: Case, summary: RunSummary) -> bool | None:
+    """The object that moved most is the case's target and its centre ended within POSITION_TOL_M of where the
+    goal motion puts it."""
+    truth = summary.sim_truth
+    if truth is None:
+        return _without_truth(summary)
+    if truth.target_goal_error_m is None:
+        return False
+    right_object = case.target is None or truth.target == case.target
+    return bool(right_object and truth.target_goal_error_m <= POSITION_TOL_M)
+
+
+def hinge_shut(case: Case, summary: RunSummary) -> bool | None:
+    """The target's lid hinge ended within LID_SHUT_DEG of shut."""
+    truth = summary.sim_truth
+    if truth is None:
+        return _without_truth(summary)
+    name = f"{case.target}_hinge" if case.target else None
+    angles = [a for joint, a in truth.hinge_deg.items() if name is None or joint == name]
+    return bool(angles) and max(abs(a) for a in angles) <= LID_SHUT_DEG
+
+
+RULES: dict[str, Rule] = {"goal_error": goal_error, "hinge_shut": hinge_shut}
+
+
+def judge(case: Case, summary: RunSummary) -> bool | None:
+    try:
+        rule = RULES[case.truth]
+    except KeyError:
+        raise ValueError(f"case {case.id}: unknown truth rule {case.truth!r}; known: {', '.join(RULES)}") from None
+    return rule(case, summary)

@@ -1,0 +1,145 @@
+"""One case, run where a worker is (a process on this machine or a Ray worker anywhere): a whole `goalvla run`
+on its own simulator, with its own Zenoh robot id and loopback port so that runs never hear each other, written
+into a fresh run folder and handed back packed (tar) so that every backend gathers results the same way.
+
+The pipeline's backends are built once per worker process and kept for its later cases, like a long-running
+runtime.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import os
+import socket
+import tarfile
+import tempfile
+import time
+from pathlib import Path
+
+from runtime.campaign.cases import Case
+from runtime.campaign.results import RESULT_FILE, CaseResult
+
+log = logging.getLogger(__name__)
+_stages = None  # this worker process's (contact, stages): backends loaded once
+
+
+def free_port() -> int:
+    """A free TCP port on this machine's loopback (the run's Zenoh endpoint)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def worker_name() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def profile_overrides(case: Case, campaign: str, rerun_recording: bool) -> dict:
+    robot_id = f"eval-{campaign}-{case.id}".replace(".", "_")[:120]
+    return {
+        "sim": {"scene": case.scene, "seed": case.sim_seed},
+        "runtime": {
+            "robot_id": robot_id,
+            "zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"},
+            "rerun_recording": rerun_recording,
+        },
+    }
+
+
+def _refusal(case: Case, profile) -> str | None:
+    """Why the run would not start (as `goalvla run` refuses before any device opens), or None."""
+    from drivers.sim.generate import check_scene
+    from drivers.sim.scene import SceneError
+    from pipeline.reasoning.factory import preflight
+    from pipeline.reasoning.instruction import InstructionError, check_instruction
+
+    problems = preflight(profile.pipeline)
+    if profile.pipeline.vlm == "offline":
+        try:
+            check_instruction(case.instruction)
+        except InstructionError as e:
+            problems.append(str(e))
+    try:
+        check_scene(profile.sim)
+    except SceneError as e:
+        problems.append(str(e))
+    return "; ".join(problems) or None
+
+
+def build_stages(contact: str):
+    """The run's stages: the pipeline's own, or with the simulator's ground-truth grasp standing in for contact
+    planning (to measure the rest while contact is under work)."""
+    from runtime.run.stages import PipelineStages
+    from runtime.sim_truth.listener import SimTruth
+
+    if contact == "oracle":
+        from runtime.sim_truth.oracle import GroundTruthGraspStages
+
+        return GroundTruthGraspStages(listeners=[SimTruth()])
+    return PipelineStages(listeners=[SimTruth()])
+
+
+def run_case(
+    case: Case, config: Path, campaign: str, run_dir: Path, rerun_recording: bool = True, contact: str = "pipeline"
+) -> CaseResult:
+    """Run the case into run_dir (new) and write its result.json there."""
+    global _stages
+    from runtime.config import load_profile
+    from runtime.devices import open_devices
+    from runtime.run.runner import Runtime
+
+    profile = load_profile(config, profile_overrides(case, campaign, rerun_recording))
+    refusal = _refusal(case, profile)
+    if refusal is not None:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        result = CaseResult.refused(case, refusal, worker_name())
+    else:
+        if _stages is None or _stages[0] != contact:
+            _stages = (contact, build_stages(contact))
+        run, t0 = None, time.perf_counter()
+        try:
+            with open_devices(profile) as devices, Runtime(profile, devices, _stages[1], confirm="yes") as rt:
+                run = rt.run(case.instruction, run_dir)
+        except Exception:
+            if run is None:
+                raise
+            # the run ended and its record is written; closing its devices failed (a stage that overran its budget
+            # still holding the camera's GL context): the result stands, and the next case gets fresh backends
+            log.exception("case %s: closing the devices after the run failed", case.id)
+            _stages = None
+        result = CaseResult.of(case, run.summary, worker_name(), time.perf_counter() - t0)
+    (run_dir / RESULT_FILE).write_text(result.model_dump_json(indent=2))
+    return result
+
+
+def execute_case(
+    case_json: str, config: str, campaign: str, rerun_recording: bool = True, contact: str = "pipeline"
+) -> tuple[str, bytes]:
+    """The unit of work of every backend: run the case in a temporary folder and return (case id, the folder as
+    tar bytes). Plain arguments and results, so a process pool and Ray carry them alike."""
+    case = Case.model_validate_json(case_json)
+    with tempfile.TemporaryDirectory(prefix="goalvla-eval-") as tmp:
+        run_dir = Path(tmp) / case.id
+        run_case(case, Path(config), campaign, run_dir, rerun_recording, contact)
+        buffer = io.BytesIO()
+        with tarfile.open(fileobj=buffer, mode="w") as tar:
+            tar.add(run_dir, arcname=case.id)
+        return case.id, buffer.getvalue()
+
+
+def unpack(case_id: str, packed: bytes, runs_dir: Path) -> Path:
+    """Put a returned run folder at runs_dir/<case id>, whole or not at all (a partial one is never left there)."""
+    target = runs_dir / case_id
+    with tempfile.TemporaryDirectory(prefix=f".{case_id}-", dir=runs_dir) as tmp:
+        with tarfile.open(fileobj=io.BytesIO(packed), mode="r") as tar:
+            tar.extractall(tmp, filter="data")
+        extracted = Path(tmp) / case_id
+        if not (extracted / RESULT_FILE).is_file():
+            raise ValueError(f"case {case_id}: the returned run folder holds no {RESULT_FILE}")
+        if target.exists():  # an earlier attempt that never finished (no result.json): replaced
+            import shutil
+
+            shutil.rmtree(target)
+        extracted.rename(target)
+    return target
