@@ -3,8 +3,8 @@
 A rule reads the case and the run's summary (its `sim_truth` section, runtime.sim_truth.listener) and answers
 True (done), False (not done) or None (cannot tell). The simulator's truth is taken at the capture that verifies:
 a run that ended before executing never moved anything, so it is not done; one that ended while executing has no
-truth (None). New tasks with their own truth (the
-fraction of screws in a dustpan) add a rule to RULES and a TaskSpec naming it.
+truth (None). Tasks with their own truth (the fraction of screws in a dustpan, an object lifted clear) use
+`task_done`, which reads the listener's task truth.
 """
 
 from __future__ import annotations
@@ -48,7 +48,16 @@ def hinge_shut(case: Case, summary: RunSummary) -> bool | None:
     return bool(angles) and max(abs(a) for a in angles) <= LID_SHUT_DEG
 
 
-RULES: dict[str, Rule] = {"goal_error": goal_error, "hinge_shut": hinge_shut}
+def task_done(case: Case, summary: RunSummary) -> bool | None:
+    """The task's own truth (runtime.sim_truth.tasks): a sweep's parts in the dustpan, an object lifted clear, a
+    support left empty."""
+    truth = summary.sim_truth
+    if truth is None:
+        return _without_truth(summary)
+    return bool(truth.task is not None and truth.task.done)
+
+
+RULES: dict[str, Rule] = {"goal_error": goal_error, "hinge_shut": hinge_shut, "task_done": task_done}
 
 
 def judge(case: Case, summary: RunSummary) -> bool | None:

@@ -8,7 +8,7 @@ import numpy as np
 from motion.manipulation.chain import ManipulationChain, ManipulationRefused
 from motion.manipulation.phases import ManipulationPlan
 from motion.manipulation.sweep import plan_sweep_phases
-from pipeline.contact.clouds import scene_clouds
+from pipeline.contact.clouds import SceneClouds, scene_clouds
 from pipeline.contact.sweep import SweepPlan, SweepRefused, plan_sweep
 from runtime.run.contact import contact_config
 from runtime.run.context import RunContext, StageError
@@ -30,10 +30,11 @@ def plan_sweep_stage(ctx: RunContext, robot: RobotModel, q_start: np.ndarray) ->
     goal, profile = ctx.goal, ctx.profile
     if goal.mask_tool is None or goal.mask_reference is None:
         raise StageError(f"sweep: reasoning named no tool ({goal.tool!r}) or no container ({goal.reference!r})")
-    clouds = ctx.clouds = scene_clouds(
+    clouds = scene_clouds(
         ctx.frame0, goal.mask_init | goal.mask_tool, robot, q_start, workspace=profile.safety.workspace
     )
     group, tool = _points(ctx, goal.mask_init), _points(ctx, goal.mask_tool)
+    ctx.clouds = SceneClouds(target=group, scene=clouds.scene)  # what the record draws: the group moves, not the tool
     try:
         contact = plan_sweep(
             group,

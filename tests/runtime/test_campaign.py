@@ -15,7 +15,7 @@ from runtime.campaign.cases import GENERATED, GENERATED_ALL, TASKS, Case, expand
 from runtime.campaign.results import RESULT_FILE, CampaignTable, CaseResult
 from runtime.campaign.truth import judge
 from runtime.campaign.worker import unpack
-from runtime.run.summary import RunSummary, SimTruthRecord, TransitionRecord
+from runtime.run.summary import RunSummary, SimTruthRecord, TaskTruthRecord, TransitionRecord
 
 
 def case(task="tabletop", seed=0, trial=0, **kw) -> Case:
@@ -77,6 +77,18 @@ def test_truth_judges_the_target_where_it_ended_not_the_verdict():
     shut = SimTruthRecord(object_displacement_m={}, hinge_deg={"box_hinge": 4.0})
     open_ = SimTruthRecord(object_displacement_m={}, hinge_deg={"box_hinge": 40.0})
     assert judge(lid, summary(truth=shut)) is True and judge(lid, summary("FAILED", "verifying", open_)) is False
+
+
+def test_the_sweep_lift_and_take_off_tasks_are_judged_by_their_own_truth():
+    for task in ("table_sweep", "pick_up", "take_off"):
+        c = case(task)
+        done = SimTruthRecord(
+            object_displacement_m={}, hinge_deg={}, task=TaskTruthRecord(action="sweep", done=True, detail="5 of 5")
+        )
+        short = done.model_copy(update={"task": TaskTruthRecord(action="sweep", done=False, detail="3 of 5")})
+        assert judge(c, summary(truth=done)) is True and judge(c, summary(truth=short)) is False
+        assert judge(c, summary(truth=SimTruthRecord(object_displacement_m={}, hinge_deg={}))) is False
+        assert judge(c, summary("FAILED", "planning")) is False
 
 
 def test_the_table_counts_false_successes_false_failures_and_where_failures_started():
