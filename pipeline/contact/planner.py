@@ -25,7 +25,13 @@ from scipy.spatial import cKDTree
 from pipeline.contact.gripper import GripperBoxes
 from pipeline.contact.held import held_box
 from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
-from pipeline.contact.sampling import Candidate, estimate_normals, grasp_candidates, push_candidates
+from pipeline.contact.sampling import (
+    Candidate,
+    estimate_normals,
+    grasp_candidates,
+    push_candidates,
+    support_height,
+)
 from pipeline.contact.symmetry import revolution_axis, turn_deg
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from safety.geometry import transform_points
@@ -71,7 +77,9 @@ def plan_contacts(
     rejected: Counter[str] = Counter()
     gripper = GripperBoxes(robot, cfg.collision_padding_m)
     if mode == "grasp":
-        candidates, why = grasp_candidates(pts, normals, cfg, robot.spec.gripper.max_width_m)
+        candidates, why = grasp_candidates(
+            pts, normals, cfg, robot.spec.gripper.max_width_m, support_height(pts, scene)
+        )
         rejected.update(why)
     elif mode == "hinge":
         try:

@@ -167,3 +167,21 @@ def test_sweeps_that_cannot_be_done_are_refused_with_the_reason(robot, case, why
         group = np.vstack([screws((x, 0.08), 0.01, 2) for x in (0.25, 0.5, 0.75)])
     with pytest.raises(SweepRefused, match=why):
         sweep_plan(robot, group, tool, container, others)
+
+
+def test_a_block_on_a_stand_is_grasped_clear_of_the_stand(robot):
+    """The support under an object is found from the scene around it: the fingers stay above the board (seen as
+    1 cm cells by the gate), where on the table they would go as deep as the object allows."""
+    from pipeline.contact.planner import plan_contacts
+    from pipeline.contact.sampling import support_height
+
+    block = box_points((0.45, -0.15, 0.09 + 0.0225), (0.045, 0.045, 0.045))
+    board = box_points((0.45, -0.15, 0.09 - 0.0075), (0.12, 0.12, 0.015))
+    board = board[np.linalg.norm(board[:, :2] - [0.45, -0.15], axis=1) > 0.04]  # the run's scene loses what is near
+    assert support_height(block, board) == pytest.approx(0.09, abs=0.005)
+    assert support_height(block - [0, 0, 0.09], np.zeros((0, 3))) == 0.0
+    contact = ContactConfig(min_tcp_height_m=lowest_safe_tcp_height(robot, 0.01), collision_padding_m=0.01)
+    on_stand = plan_contacts(block, board, np.eye(4), robot, config=contact)
+    assert on_stand.ok and on_stand.best.T_contact[2, 3] >= 0.09 + contact.min_tcp_height_m + 0.01 - 1e-6
+    on_table = plan_contacts(block - [0, 0, 0.09], np.zeros((0, 3)), np.eye(4), robot, config=contact)
+    assert on_table.best.T_contact[2, 3] < on_stand.best.T_contact[2, 3] - 0.09 + 0.005
