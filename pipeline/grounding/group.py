@@ -24,10 +24,11 @@ from safety.geometry import transform_points
 
 MIN_GROUP_POINTS = 20  # points with depth a group needs in each view
 CONTAINER_ABOVE_M = 0.02  # a part counts as in a container up to this far above the container's top
+MIN_HEIGHT_M = 0.002  # a seen point's height above the table counts at least this (depth noise at the table)
 FLOOR_BAND_M = 0.006  # a container's points this close above its lowest are its floor ...
 FLOOR_DENSE_M, FLOOR_NEIGHBOURS = 0.01, 20  # ... where they are dense (within 1 cm, a 1 m view has ~40 of them)
 WALL_ABOVE_M = 0.01  # container points this high above its floor are its walls
-WALLED_MARGIN_M = 0.005  # a part's centre at least this far inside the floor's edge along a wall ...
+WALLED_MARGIN_M = 0.012  # a part's centre at least this far inside a wall's outer face (past a wall's top) ...
 OPEN_MARGIN_M = 0.02  # ... and this far along an open edge (a dustpan's lip): a part half over it is not in
 
 
@@ -89,9 +90,9 @@ def ground_group(
 class GroupCount:
     """How many of a group's parts lie inside a container after a sweep, by the camera alone.
 
-    Touching parts are one region, in either capture, so a region counts as its metric area (area in pixels times
-    depth squared) over one part's, at least one; one part's is the median of the initial regions' (most parts
-    lie apart before a sweep)."""
+    Touching parts are one region, in either capture, so a region counts as its bulk (seen metric area times height
+    above the table, _bulk) over one part's, at least one; one part's is the median of the initial regions' (most
+    parts lie apart before a sweep)."""
 
     total: int  # parts in the initial image
     inside: int  # estimated parts inside the container's outline
@@ -103,9 +104,16 @@ class GroupCount:
         return self.inside / max(self.total, 1)
 
 
-def _metric_area(mask: np.ndarray, depth: np.ndarray) -> float:
-    z = depth[mask & np.isfinite(depth)]
-    return float(np.sum(z**2)) if len(z) else 0.0
+def _bulk(mask: np.ndarray, depth: np.ndarray, K: CameraIntrinsics, T_base_camera: np.ndarray) -> float:
+    """How much of the parts a region holds, up to a constant: its seen surface's metric area (pixels times depth
+    squared) times its height above the table. A pile shows only its top layer: its area alone counts it low,
+    its height makes up for the layers under it."""
+    valid = mask & np.isfinite(depth)
+    if not valid.any():
+        return 0.0
+    z = depth[valid]
+    height = transform_points(T_base_camera, K.unproject_depth_image(depth)[valid])[:, 2]
+    return float(np.sum(z**2 * np.clip(height, MIN_HEIGHT_M, None)))
 
 
 def count_in_container(
@@ -121,10 +129,10 @@ def count_in_container(
     parts1: list[np.ndarray],
 ) -> GroupCount:
     """The parts seen after (parts1: one mask per region) counted inside the container: each region whose centroid
-    lies over the container's floor as first seen (its lowest points, base frame: a part resting on a wall's top
-    is not in it); group0: the initial group's union mask."""
+    lies within the container's outline as first seen (its dense floor points and its walls, base frame) and past
+    its walls' tops (a part resting on a wall is not in it); group0: the initial group's union mask."""
     n, labels = cv2.connectedComponents(group0.astype(np.uint8), connectivity=8)
-    areas = np.array([_metric_area(labels == k, depth0) for k in range(1, n)])
+    areas = np.array([_bulk(labels == k, depth0, K0, T_base_camera0) for k in range(1, n)])
     areas = areas[areas > 0]
     if not len(areas):
         raise ValueError("count_in_container: the initial group shows no part with depth")
@@ -138,8 +146,9 @@ def count_in_container(
     low = low[neighbours >= FLOOR_NEIGHBOURS]  # not a rim of mixed pixels at the mask's edge (the table's)
     if len(low) < 20:
         raise ValueError("count_in_container: the container shows no floor")
-    floor = ConvexHull(low)
-    margins = _edge_margins(floor, pts[pts[:, 2] > np.percentile(pts[:, 2], 3) + WALL_ABOVE_M, :2])
+    walls = pts[pts[:, 2] > np.percentile(pts[:, 2], 3) + WALL_ABOVE_M, :2]
+    floor = ConvexHull(np.vstack([low, walls]))  # to the walls' outer faces: a wall hides the floor behind it
+    margins = _edge_margins(floor, walls)
     top = float(np.percentile(pts[:, 2], 98)) + CONTAINER_ABOVE_M
     regions = []
     for mask in parts1:
@@ -147,7 +156,7 @@ def count_in_container(
         if not valid.any():
             continue
         p = transform_points(T_base_camera1, K1.unproject_depth_image(depth1)[valid]).mean(axis=0)
-        parts = max(1, round(_metric_area(mask, depth1) / unit))
+        parts = max(1, round(_bulk(mask, depth1, K1, T_base_camera1) / unit))
         inside = bool(np.all(floor.equations[:, :2] @ p[:2] + floor.equations[:, 2] <= -margins)) and p[2] < top
         regions.append((float(p[0]), float(p[1]), int(parts), inside))
     outside = sum(r[2] for r in regions if not r[3])

@@ -85,6 +85,7 @@ SHADE_RATIO = 0.8  # a light (dark) region's saturation (value) against the deep
 PILE_AREA_FRAC = 5e-3  # a pile of small parts (screws) is at most this share of the image ...
 PILE_FILL, PILE_ELLIPSE = 0.75, 0.7  # ... and fills less of its rectangle, or of its ellipse, than any solid does
 FRAGMENT_AREA_FRAC = 2 * SPECK_AREA_FRAC  # a region this small of the colour is a part, partly seen
+CONFIDENT_KIND = 0.8  # a region scoring this for some kind is an object of that kind, not a pile
 
 
 @dataclass(frozen=True)
@@ -215,19 +216,17 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
 
 def _piles(rgb: np.ndarray, others: list[Instance], want: ObjectPhrase) -> list[Instance]:
     """Regions of the named colour that are small parts too, of a plural phrase (its parts heaped in a dustpan,
-    half hidden behind a wall): no larger than PILE_AREA_FRAC of the image, and either a fragment (at most two
-    parts' size) or irregular (neither a block's, a can's nor a ball's outline): a region that is a whole object of
-    another kind is not one of them."""
+    half hidden behind a wall): no larger than PILE_AREA_FRAC of the image, and a fragment (at most two parts'
+    size), irregular (neither a block's, a can's nor a ball's outline) or no confident other kind: a region that is
+    a whole object of another kind is not one of them."""
     out = []
     for i in others:
         frac = i.region.area / i.region.mask.size
         if i.region.colour != want.colour or frac > PILE_AREA_FRAC:
             continue
-        if frac <= FRAGMENT_AREA_FRAC:
-            out.append(i)
-            continue
         c = cues(i.region.mask, rgb)
-        if c.rect_fill < PILE_FILL or c.ellipse_iou < PILE_ELLIPSE:
+        irregular = c.rect_fill < PILE_FILL or c.ellipse_iou < PILE_ELLIPSE
+        if frac <= FRAGMENT_AREA_FRAC or irregular or max(i.scores.values()) < CONFIDENT_KIND:
             out.append(i)
     return out
 
