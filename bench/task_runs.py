@@ -9,9 +9,10 @@ A run is a success when it exits 0 (verified); a false success is one the simula
 missed success one that failed although the truth says done. Use seeds you did not tune on for the figures.
 
 By default each run is `goalvla run` in its own process, physics on the wall clock as on hardware: on a loaded
-machine a run may end in a stale-state or deadman stop that says nothing of the task. `--stepped` runs the same
-stages in this process with the physics stepped by the executor's clock (and a 1 s deadman), so the figures do
-not depend on the machine's load.
+machine a run may end in a stale-state or deadman stop that says nothing of the task. `--stepped` runs each case
+in this process as `goalvla eval --stepped` does (runtime.campaign.worker: the physics stepped by the executor's
+clock, a 1 s deadman), so the figures depend far less on the machine's load (the stage budgets and the e-stop
+heartbeat still keep the wall clock).
 
     python bench/task_runs.py --seeds 300:310 --out tasks.json [--tasks sweep,pick_up] [--runs-dir DIR] [--stepped]
 """
@@ -59,24 +60,15 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def run_stepped(scene: str, seed: int, instruction: str, record: Path) -> tuple[int, str]:
-    """One run in this process, the physics stepped by the executor's clock; (exit code as the CLI's, output)."""
-    from drivers.sim import SteppedClock
-    from runtime.config import load_profile
-    from runtime.devices import open_devices
-    from runtime.run.runner import Runtime
-    from runtime.run.stages import PipelineStages
-    from runtime.sim_truth.listener import SimTruth
+def run_stepped(task: str, scene: str, seed: int, instruction: str, record: Path) -> tuple[int, str]:
+    """One run in this process as a stepped campaign runs it (runtime.campaign.worker: the physics stepped by the
+    executor's clock); (exit code as the CLI's, output)."""
+    from runtime.campaign.cases import Case
+    from runtime.campaign.worker import run_case as run_campaign_case
 
-    overrides = {
-        "sim": {"scene": scene, "seed": seed, "realtime": False},
-        "runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "deadman_timeout_s": 1.0},
-    }
-    profile = load_profile(CONFIG, overrides)
-    stages = PipelineStages(listeners=[SimTruth()], clock=lambda devices: SteppedClock(devices.world))
-    with open_devices(profile) as devices, Runtime(profile, devices, stages, confirm="yes") as runtime:
-        result = runtime.run(instruction, record)
-    return (0 if result.ok else 3 if result.status.value == "ESTOPPED" else 1), result.reason
+    case = Case(task=task, scene=scene, instruction=instruction, seed=seed, trial=0, sim_seed=seed, action=task)
+    result = run_campaign_case(case, CONFIG, "task_runs", record, stepped=True)
+    return (0 if result.verified else 3 if result.status == "ESTOPPED" else 1), result.reason
 
 
 def run_case(task: str, seed: int, runs_dir: Path, profile: Path, stepped: bool) -> dict:
@@ -85,7 +77,7 @@ def run_case(task: str, seed: int, runs_dir: Path, profile: Path, stepped: bool)
     record = runs_dir / f"{task}-{seed}"
     t0 = time.perf_counter()
     if stepped:
-        code, output = run_stepped(scene, seed, instruction, record)
+        code, output = run_stepped(task, scene, seed, instruction, record)
     else:
         cmd = [sys.executable, "-m", "runtime.commands.cli", "run", "--config", str(profile), "--scene", scene]
         cmd += ["--seed", str(seed), "--instruction", instruction, "--yes", "--record", str(record)]

@@ -41,6 +41,7 @@ class CampaignSpec(BaseModel):
     trials: int
     rerun_recording: bool = True
     contact: Literal["pipeline", "oracle"] = "pipeline"  # oracle: the simulator's grasp (runtime.sim_truth.oracle)
+    stepped: bool = False  # physics stepped by the executor's clock: outcomes independent of the machine's load
 
     def cases(self) -> list[Case]:
         try:
@@ -91,7 +92,8 @@ def write_results(outcome: CampaignOutcome, out: Path) -> None:
     seeds = f"seeds {spec.seeds[0]}..{spec.seeds[-1]}" if spec.seeds else "no seeds"
     subtitle = (
         f"{len(outcome.results)} runs: tasks {', '.join(spec.tasks)}; {seeds}; {spec.trials} trial(s); profile "
-        f"{Path(spec.config).name}; contact {spec.contact}; on {outcome.pool}"
+        f"{Path(spec.config).name}; contact {spec.contact}; {'stepped' if spec.stepped else 'real-time'} physics; "
+        f"on {outcome.pool}"
     )
     (out / "results.html").write_text(html_page(outcome.table, title, outcome.results, subtitle))
 
@@ -111,7 +113,7 @@ def run_campaign(spec: CampaignSpec, out: Path, pool: Pool, console: Console) ->
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, TextColumn("eta"), TimeRemainingColumn(), console=console) as progress:
         bar = progress.add_task("runs", total=len(cases), completed=len(done))
-        settings = (spec.config, spec.name, spec.rerun_recording, spec.contact)
+        settings = (spec.config, spec.name, spec.rerun_recording, spec.contact, spec.stepped)
         futures: dict[Future, Case] = {pool.submit(c.model_dump_json(), *settings): c for c in pending}
         try:
             remaining = set(futures)

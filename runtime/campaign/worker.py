@@ -35,9 +35,15 @@ def worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def profile_overrides(case: Case, campaign: str, rerun_recording: bool) -> dict:
+STEPPED_DEADMAN_S = 1.0  # a stepped run's e-stop heartbeat max age: the heartbeat still keeps the wall clock
+
+
+def profile_overrides(case: Case, campaign: str, rerun_recording: bool, stepped: bool = False) -> dict:
+    """The case's scene and seed, its own robot id and port; stepped: the physics advances only when the executor
+    waits for a time (sim.realtime off), and the in-process e-stop heartbeat may be 1 s old, so the machine's load
+    cannot starve the simulated robot."""
     robot_id = f"eval-{campaign}-{case.id}".replace(".", "_")[:120]
-    return {
+    overrides = {
         "sim": {"scene": case.scene, "seed": case.sim_seed},
         "runtime": {
             "robot_id": robot_id,
@@ -45,6 +51,10 @@ def profile_overrides(case: Case, campaign: str, rerun_recording: bool) -> dict:
             "rerun_recording": rerun_recording,
         },
     }
+    if stepped:
+        overrides["sim"]["realtime"] = False
+        overrides["runtime"]["deadman_timeout_s"] = STEPPED_DEADMAN_S
+    return overrides
 
 
 def _refusal(case: Case, profile) -> str | None:
@@ -67,21 +77,30 @@ def _refusal(case: Case, profile) -> str | None:
     return "; ".join(problems) or None
 
 
-def build_stages(contact: str):
+def build_stages(contact: str, stepped: bool = False):
     """The run's stages: the pipeline's own, or with the simulator's ground-truth grasp standing in for contact
-    planning (to measure the rest while contact is under work)."""
+    planning (to measure the rest while contact is under work); stepped: the executor's clock is the stepped
+    simulator's (drivers.sim.SteppedClock), so a run's outcome does not depend on the machine's load."""
+    from drivers.sim import SteppedClock
     from runtime.run.stages import PipelineStages
     from runtime.sim_truth.listener import SimTruth
 
+    clock = (lambda devices: SteppedClock(devices.world)) if stepped else None
     if contact == "oracle":
         from runtime.sim_truth.oracle import GroundTruthGraspStages
 
-        return GroundTruthGraspStages(listeners=[SimTruth()])
-    return PipelineStages(listeners=[SimTruth()])
+        return GroundTruthGraspStages(listeners=[SimTruth()], clock=clock)
+    return PipelineStages(listeners=[SimTruth()], clock=clock)
 
 
 def run_case(
-    case: Case, config: Path, campaign: str, run_dir: Path, rerun_recording: bool = True, contact: str = "pipeline"
+    case: Case,
+    config: Path,
+    campaign: str,
+    run_dir: Path,
+    rerun_recording: bool = True,
+    contact: str = "pipeline",
+    stepped: bool = False,
 ) -> CaseResult:
     """Run the case into run_dir (new) and write its result.json there."""
     global _stages
@@ -89,14 +108,14 @@ def run_case(
     from runtime.devices import open_devices
     from runtime.run.runner import Runtime
 
-    profile = load_profile(config, profile_overrides(case, campaign, rerun_recording))
+    profile = load_profile(config, profile_overrides(case, campaign, rerun_recording, stepped))
     refusal = _refusal(case, profile)
     if refusal is not None:
         run_dir.mkdir(parents=True, exist_ok=True)
         result = CaseResult.refused(case, refusal, worker_name())
     else:
-        if _stages is None or _stages[0] != contact:
-            _stages = (contact, build_stages(contact))
+        if _stages is None or _stages[0] != (contact, stepped):
+            _stages = ((contact, stepped), build_stages(contact, stepped))
         run, t0 = None, time.perf_counter()
         try:
             with open_devices(profile) as devices, Runtime(profile, devices, _stages[1], confirm="yes") as rt:
@@ -114,14 +133,19 @@ def run_case(
 
 
 def execute_case(
-    case_json: str, config: str, campaign: str, rerun_recording: bool = True, contact: str = "pipeline"
+    case_json: str,
+    config: str,
+    campaign: str,
+    rerun_recording: bool = True,
+    contact: str = "pipeline",
+    stepped: bool = False,
 ) -> tuple[str, bytes]:
     """The unit of work of every backend: run the case in a temporary folder and return (case id, the folder as
     tar bytes). Plain arguments and results, so a process pool and Ray carry them alike."""
     case = Case.model_validate_json(case_json)
     with tempfile.TemporaryDirectory(prefix="goalvla-eval-") as tmp:
         run_dir = Path(tmp) / case.id
-        run_case(case, Path(config), campaign, run_dir, rerun_recording, contact)
+        run_case(case, Path(config), campaign, run_dir, rerun_recording, contact, stepped)
         buffer = io.BytesIO()
         with tarfile.open(fileobj=buffer, mode="w") as tar:
             tar.add(run_dir, arcname=case.id)

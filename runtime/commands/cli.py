@@ -262,6 +262,14 @@ def eval_campaign(
         str | None, typer.Option("--ray", help="run on the Ray cluster at ADDRESS, or 'local' to start one here")
     ] = None,
     recording: Annotated[bool, typer.Option("--recording/--no-recording", help="run.rrd in each run")] = True,
+    stepped: Annotated[
+        bool,
+        typer.Option(
+            "--stepped",
+            help="physics stepped by the executor's clock, not the wall clock: outcomes independent of the "
+            "machine's load (wall times then say nothing of real time)",
+        ),
+    ] = False,
 ) -> None:
     """A campaign: every (task, seed, trial) a whole run with its own record; a results table like the paper's.
 
@@ -283,6 +291,7 @@ def eval_campaign(
         seeds=tuple(seed_list),
         trials=trials,
         rerun_recording=recording,
+        stepped=stepped,
     )
     try:
         spec.cases()

@@ -173,3 +173,32 @@ def test_worker_processes_and_a_local_ray_instance_write_the_same_table(tmp_path
     finally:
         pool.close()
     assert again.ran_now == 0 and again.table.outcome() == processes.table.outcome()
+
+
+def test_a_stepped_campaign_runs_its_cases_on_the_executors_clock(sim_config_path):
+    """--stepped: the sim's physics is off the wall clock, the executor steps it, and the heartbeat may be 1 s old."""
+    from types import SimpleNamespace
+
+    from drivers.sim import SteppedClock
+    from runtime.campaign.worker import build_stages, profile_overrides
+    from runtime.config import load_profile
+
+    c = case("take_off", seed=3)
+    stepped = load_profile(sim_config_path, profile_overrides(c, "c", True, stepped=True))
+    plain = load_profile(sim_config_path, profile_overrides(c, "c", True))
+    assert not stepped.sim.realtime and stepped.runtime.deadman_timeout_s == 1.0
+    assert plain.sim.realtime and plain.runtime.deadman_timeout_s < 1.0
+    world = object()
+    assert build_stages("pipeline").clock is None
+    for contact in ("pipeline", "oracle"):
+        clock = build_stages(contact, stepped=True).clock(SimpleNamespace(world=world))
+        assert isinstance(clock, SteppedClock) and clock.world is world
+
+
+@pytest.mark.slow
+def test_a_stepped_case_is_a_whole_run_judged_by_the_simulator(sim_config_path, tmp_path):
+    from runtime.campaign.worker import run_case
+
+    result = run_case(case("take_off", seed=5), sim_config_path, "c", tmp_path / "run", False, stepped=True)
+    assert result.verified and result.truly_done, result.reason
+    assert (tmp_path / "run" / RESULT_FILE).is_file()
