@@ -30,6 +30,9 @@ FLOOR_DENSE_M, FLOOR_NEIGHBOURS = 0.01, 20  # ... where they are dense (within 1
 WALL_ABOVE_M = 0.01  # container points this high above its floor are its walls
 WALLED_MARGIN_M = 0.012  # a part's centre at least this far inside a wall's outer face (past a wall's top) ...
 OPEN_MARGIN_M = 0.02  # ... and this far along an open edge (a dustpan's lip): a part half over it is not in
+WALL_TOP_BAND_M = 0.005  # a container's points this close below its highest are its walls' tops
+ON_WALL_NEAR_M, ON_WALL_ABOVE_M = 0.006, 0.003  # a part's point this near a wall's top and this far above it rests
+# on the wall (a part on the floor against a wall reaches no higher than the wall's top that close to it)
 
 
 def _edge_margins(floor: ConvexHull, walls_xy: np.ndarray) -> np.ndarray:
@@ -104,16 +107,31 @@ class GroupCount:
         return self.inside / max(self.total, 1)
 
 
-def _bulk(mask: np.ndarray, depth: np.ndarray, K: CameraIntrinsics, T_base_camera: np.ndarray) -> float:
+def _bulk(
+    mask: np.ndarray, depth: np.ndarray, K: CameraIntrinsics, T_base_camera: np.ndarray, base_z: float = 0.0
+) -> float:
     """How much of the parts a region holds, up to a constant: its seen surface's metric area (pixels times depth
-    squared) times its height above the table. A pile shows only its top layer: its area alone counts it low,
-    its height makes up for the layers under it."""
+    squared) times its height above what it rests on (base_z: the table's 0, a wall's top). A pile shows only its
+    top layer: its area alone counts it low, its height makes up for the layers under it."""
     valid = mask & np.isfinite(depth)
     if not valid.any():
         return 0.0
     z = depth[valid]
-    height = transform_points(T_base_camera, K.unproject_depth_image(depth)[valid])[:, 2]
+    height = transform_points(T_base_camera, K.unproject_depth_image(depth)[valid])[:, 2] - base_z
     return float(np.sum(z**2 * np.clip(height, MIN_HEIGHT_M, None)))
+
+
+def _on_walls(
+    mask: np.ndarray, depth: np.ndarray, K: CameraIntrinsics, T_base_camera: np.ndarray, tops: cKDTree, top_z: float
+) -> np.ndarray:
+    """The region's pixels resting on a wall of the container: above the walls' top, over it (tops: the walls'
+    top points, base x, y). Such a part is not in the container, whatever the region it touches."""
+    valid = mask & np.isfinite(depth)
+    p = transform_points(T_base_camera, K.unproject_depth_image(depth)[valid])
+    near = tops.query(p[:, :2], distance_upper_bound=ON_WALL_NEAR_M)[0] < np.inf
+    out = np.zeros_like(mask)
+    out[valid] = near & (p[:, 2] > top_z + ON_WALL_ABOVE_M)
+    return out
 
 
 def count_in_container(
@@ -130,7 +148,8 @@ def count_in_container(
 ) -> GroupCount:
     """The parts seen after (parts1: one mask per region) counted inside the container: each region whose centroid
     lies within the container's outline as first seen (its dense floor points and its walls, base frame) and past
-    its walls' tops (a part resting on a wall is not in it); group0: the initial group's union mask."""
+    its walls' tops; a part resting on a wall's top is not in it, even touching parts inside (its pixels over the
+    wall above its top are a region of their own, outside); group0: the initial group's union mask."""
     n, labels = cv2.connectedComponents(group0.astype(np.uint8), connectivity=8)
     areas = np.array([_bulk(labels == k, depth0, K0, T_base_camera0) for k in range(1, n)])
     areas = areas[areas > 0]
@@ -146,19 +165,29 @@ def count_in_container(
     low = low[neighbours >= FLOOR_NEIGHBOURS]  # not a rim of mixed pixels at the mask's edge (the table's)
     if len(low) < 20:
         raise ValueError("count_in_container: the container shows no floor")
-    walls = pts[pts[:, 2] > np.percentile(pts[:, 2], 3) + WALL_ABOVE_M, :2]
+    wall_points = pts[pts[:, 2] > np.percentile(pts[:, 2], 3) + WALL_ABOVE_M]
+    walls = wall_points[:, :2]
     floor = ConvexHull(np.vstack([low, walls]))  # to the walls' outer faces: a wall hides the floor behind it
     margins = _edge_margins(floor, walls)
-    top = float(np.percentile(pts[:, 2], 98)) + CONTAINER_ABOVE_M
+    wall_top = float(np.percentile(pts[:, 2], 98))
+    top = wall_top + CONTAINER_ABOVE_M
+    tops = cKDTree(walls[wall_points[:, 2] > wall_top - WALL_TOP_BAND_M])
     regions = []
-    for mask in parts1:
-        valid = mask & np.isfinite(depth1)
-        if not valid.any():
-            continue
-        p = transform_points(T_base_camera1, K1.unproject_depth_image(depth1)[valid]).mean(axis=0)
-        parts = max(1, round(_bulk(mask, depth1, K1, T_base_camera1) / unit))
-        inside = bool(np.all(floor.equations[:, :2] @ p[:2] + floor.equations[:, 2] <= -margins)) and p[2] < top
-        regions.append((float(p[0]), float(p[1]), int(parts), inside))
+    for region in parts1:
+        on_wall = _on_walls(region, depth1, K1, T_base_camera1, tops, wall_top) if len(tops.data) else None
+        # (pixels, the height they rest on, in or not (None: by where they are), the fewest parts they count)
+        pieces = [(region, 0.0, None, 1)]
+        if on_wall is not None and round(_bulk(on_wall, depth1, K1, T_base_camera1, wall_top) / unit) >= 1:
+            pieces = [(on_wall, wall_top, False, 1), (region & ~on_wall, 0.0, None, 0)]  # the rest: its own bulk
+        for mask, base_z, verdict, fewest in pieces:
+            valid = mask & np.isfinite(depth1)
+            parts = max(fewest, round(_bulk(mask, depth1, K1, T_base_camera1, base_z) / unit))
+            if not valid.any() or parts == 0:
+                continue
+            p = transform_points(T_base_camera1, K1.unproject_depth_image(depth1)[valid]).mean(axis=0)
+            over_floor = np.all(floor.equations[:, :2] @ p[:2] + floor.equations[:, 2] <= -margins)
+            inside = bool(over_floor and p[2] < top) if verdict is None else verdict
+            regions.append((float(p[0]), float(p[1]), int(parts), inside))
     outside = sum(r[2] for r in regions if not r[3])
     # an area is a loose count (a part lying askew shows more of itself): the parts seen elsewhere bound it
     inside = max(0, min(group_size - outside, sum(r[2] for r in regions if r[3])))

@@ -180,3 +180,65 @@ def test_cloud_enhancement_names_a_group_and_a_tool(fake_server, task_view, monk
     sent = request["generationConfig"]["responseJsonSchema"]
     assert {"tool_object", "several_targets"} <= set(sent["required"]) and "default" not in json.dumps(sent)
     assert sent == json_schema(EnhancementReply)
+
+
+def _lay_screws(world, places) -> None:
+    """Put the scene's screws at (x, y, z) in the dustpan's frame, lying along its y axis (z: the screw's lowest)."""
+    import mujoco
+
+    m, d = world.model, world.data
+    T = world.object_pose("dustpan")
+    R = T[:3, :3] @ np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])  # the screw's x (its axis) along the dustpan's y
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, R.ravel())
+    screws = [o.name for o in world.scene.objects if o.kind == "screw"]
+    for name, local in zip(screws, places, strict=False):
+        adr = m.jnt_qposadr[m.body(name).jntadr[0]]
+        d.qpos[adr : adr + 3] = T[:3, :3] @ np.asarray(local) + T[:3, 3]
+        d.qpos[adr + 3 : adr + 7] = quat
+    d.qvel[:] = 0
+    mujoco.mj_forward(m, d)
+
+
+@pytest.mark.parametrize("on_wall", [False, True])
+def test_a_screw_resting_on_the_dustpans_wall_is_not_counted_in_it(sim_profile_with, on_wall):
+    """After a sweep a screw may ride up onto the far wall, touching the screws piled against it: the camera must
+    not count it in (a false success), nor a screw lying on the floor against that wall out."""
+    from drivers.sim import SimCamera, SimWorld
+    from drivers.sim.scene import DUSTPAN_FLOOR_M, DUSTPAN_WALL_M, SCREW_HEAD
+    from pipeline.grounding.group import count_in_container
+    from runtime.sim_truth.tasks import task_truth
+
+    profile = sim_profile_with({"sim": {"scene": "table_sweep", "seed": 4}})
+    world = SimWorld(profile.sim, profile.camera)
+    dustpan = next(o for o in world.scene.objects if o.kind == "dustpan")
+    dx, _, wall_h = dustpan.size_m
+    screws = [o for o in world.scene.objects if o.kind == "screw"]
+    head_r = SCREW_HEAD[0] * screws[0].radius_m
+    against_wall = -dx / 2 + DUSTPAN_WALL_M + head_r + 0.001
+    places = [(against_wall, 0.0, DUSTPAN_FLOOR_M)]  # on the floor against the far wall
+    places += [(-0.02 + 0.03 * (k % 2), -0.08 + 0.045 * k, DUSTPAN_FLOOR_M) for k in range(len(screws) - 2)]
+    last = (-dx / 2 + DUSTPAN_WALL_M / 2, 0.04, wall_h) if on_wall else (against_wall, 0.05, DUSTPAN_FLOOR_M)
+    places.append(last)
+    with SimCamera(world, seed=0) as camera:
+        before = camera.read().with_extrinsics(camera.T_base_camera)
+        masks = camera.object_masks()
+        _lay_screws(world, places)
+        after = camera.read().with_extrinsics(camera.T_base_camera)
+    truth = task_truth(world, parse_instruction("sweep the screws into the dustpan"))
+    assert truth.parts_inside == len(screws) - on_wall  # the scene is as meant
+    parts = [d.mask for d in OfflineSegmenter().segment(after.rgb, "yellow screws")]
+    count = count_in_container(
+        depth0=before.depth,
+        K0=before.intrinsics,
+        T_base_camera0=before.T_base_camera,
+        group0=np.any([masks[o.name] for o in screws], axis=0),
+        container0=masks["dustpan"],
+        depth1=after.depth,
+        K1=after.intrinsics,
+        T_base_camera1=after.T_base_camera,
+        parts1=parts,
+    )
+    assert count.total == len(screws)
+    assert count.inside == len(screws) - on_wall, [tuple(round(v, 3) for v in r) for r in count.regions]
+    assert count.outside == on_wall, count.regions
