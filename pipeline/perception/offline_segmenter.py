@@ -75,6 +75,7 @@ LIGHT_NEUTRALS = ("white", "gray")  # a colour word of one stands for the other 
 SHUT_LOOKS_LIKE = frozenset({"box"})  # a lidded box with its lid shut is a box to the eye: when no lidded one is,
 CHEST_AREA_RATIO = 0.6  # ... the largest box (and any nearly as large): a chest is several blocks in size
 ATTACHED_PX = 4  # a part's region lies within this many pixels of its object's region
+ENCLOSED_TOP = 0.8  # a region with its object's just above this share of its top edge lies inside the object
 CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 BLEND_SATURATION = 0.8  # a lid's pixel along its box this much less saturated than the lid is a blend of the two
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
@@ -269,9 +270,22 @@ def _lid(rgb: np.ndarray, whole: Instance, instances: list[Instance], want: Obje
     return None
 
 
+def _inside(mask: np.ndarray, own: np.ndarray) -> bool:
+    """Whether `own` lies just above `mask` along most of its top edge: the region is inside that object (screws
+    heaped in a dustpan), seen through its open top, not a lid on it (a lid's top edge meets what lies beyond)."""
+    v, u = np.nonzero(mask)
+    columns = np.unique(u)
+    tops = np.array([v[u == c].min() for c in columns])
+    covered = np.zeros(len(columns), bool)
+    for dv in range(1, ATTACHED_PX + 2):
+        covered |= own[np.clip(tops - dv, 0, None), columns]
+    return bool(covered.mean() >= ENCLOSED_TOP)
+
+
 def _attached_lid(whole: Instance, instances: list[Instance], any_shape: bool = False) -> Instance | None:
     """The largest region touching `whole` from above: over its width, reaching above its middle, covering
-    LID_MIN_FRACTION of it, and flat unless `any_shape` (a lid seen edge-on looks like anything but a ball)."""
+    LID_MIN_FRACTION of it, flat unless `any_shape` (a lid seen edge-on looks like anything but a ball), and not
+    inside it (what lies in an open box is no lid)."""
     own = whole.region.mask
     near = cv2.dilate(own.astype(np.uint8), np.ones((2 * ATTACHED_PX + 1,) * 2, np.uint8)).astype(bool)
     u0, v0, u1, v1 = box_of(own)
@@ -286,6 +300,7 @@ def _attached_lid(whole: Instance, instances: list[Instance], any_shape: bool = 
             and over >= 0.5 * (a1 - a0)
             and (b0 + b1) / 2 < middle
             and bool((i.region.mask & near).any())
+            and not _inside(i.region.mask, own)
         )
 
     return max((i for i in instances if i is not whole and lid_like(i)), key=lambda i: i.region.area, default=None)

@@ -242,3 +242,16 @@ def test_a_screw_resting_on_the_dustpans_wall_is_not_counted_in_it(sim_profile_w
     assert count.total == len(screws)
     assert count.inside == len(screws) - on_wall, [tuple(round(v, 3) for v in r) for r in count.regions]
     assert count.outside == on_wall, count.regions
+
+
+def test_screws_heaped_in_the_dustpan_are_found_not_taken_for_its_lid(task_view):
+    """A dustpan looks much like an open lidded box from above; the goal image heaps eight screws on its floor,
+    touching it from inside, not from above: they are the screws, not the box's lid to leave out."""
+    frame, masks, world = task_view("table_sweep", 2011)
+    screws = [o.name for o in world.scene.objects if o.kind == "screw"]
+    assert len(screws) == 8  # the most the scene scatters: their heap in the goal image is one large region
+    goal = build_reasoner(PipelineConfig()).run(frame, "sweep the screws into the dustpan")
+    assert goal.validated and goal.group_size == len(screws)
+    found = OfflineSegmenter().segment(goal.rgb_goal, "yellow screws")
+    assert found and _iou(np.any([d.mask for d in found], axis=0), goal.mask_goal) > 0.9
+    assert _iou(goal.mask_goal & masks["dustpan"], goal.mask_goal) > 0.9  # drawn over the dustpan
