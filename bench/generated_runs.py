@@ -4,11 +4,16 @@ scene and its own instruction, runtime.campaign), reported by action, with stage
 A sentence outside the offline grammar must be refused before anything starts (the campaign counts it REFUSED).
 For the others: stage 1 (capture and reasoning: segmentation, editing, reflection) passes when the run reaches
 GROUNDING with the initial target mask on the case's target object (the simulator's own segmentation of the first
-capture, the lid body for "close"); the campaign's table gives the rest: verified, done by the simulator's truth
-(runtime.campaign.truth: the target's centre within 3 cm of where the goal motion puts it, a lid within 15 deg of
-shut), false successes and failures, and the state each failure ended in. Use seeds you did not tune on.
+capture, the lid body for "close"); the campaign's table gives the rest per action: verified, really done by the
+simulator's truth (runtime.campaign.truth: the target's centre within 3 cm of where the goal motion puts it and,
+for a turn or a stand-up, its shape within 15 deg of the goal's turn, for a push not tipped more than 15 deg; a
+lid within 15 deg of shut), false successes and failures, runs this machine's load stopped (run once more by the
+worker), and the state each failure ended in. With --stepped the physics is advanced by the executor's clock, so a
+loaded machine cannot starve the simulated robot (wall times then say nothing of real time). Use seeds you did not
+tune on.
 
     python bench/generated_runs.py --seeds 2000:2040 --out gen.json [--runs-dir campaigns/gen] [--workers 2] [--quick]
+        [--stepped]
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ from rich.console import Console  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / "configs" / "sim.yaml"
-TARGETS = {"stage1_accepts_in_grammar": 0.95, "outside_grammar_refused": 1.0}
+TARGETS = {"stage1_accepts_in_grammar": 0.95, "outside_grammar_refused": 1.0, "verified_and_done_fraction": 0.9}
 IOU_MIN = 0.4  # the run's initial mask on the right object
 
 
@@ -71,12 +76,15 @@ def main() -> int:
     parser.add_argument("--quick", action="store_true", help="the first 4 seeds only")
     parser.add_argument("--runs-dir", type=Path, default=None, help="the campaign folder (kept; resumable)")
     parser.add_argument("--workers", type=int, default=1, help="runs at a time")
+    parser.add_argument("--stepped", action="store_true", help="the physics advanced by the executor's clock")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     a, b = (int(x) for x in args.seeds.split(":"))
     seeds = tuple(range(a, min(b, a + 4) if args.quick else b))
     console = Console()
-    spec = CampaignSpec(name="generated", config=str(CONFIG), tasks=("gen",), seeds=seeds, trials=1)
+    spec = CampaignSpec(
+        name="generated", config=str(CONFIG), tasks=("gen",), seeds=seeds, trials=1, stepped=args.stepped
+    )
     with tempfile.TemporaryDirectory() as tmp:
         folder = args.runs_dir or Path(tmp) / "generated"
         pool = ProcessPool(args.workers)
@@ -88,7 +96,8 @@ def main() -> int:
         for r in outcome.results:
             row = {"seed": r.case.seed, "instruction": r.case.instruction, "action": r.case.action,
                    "target": r.case.target, "status": r.status, "failed_in": r.failed_in, "reason": r.reason[:300],
-                   "verified": r.verified, "done_truth": r.truly_done, "wall_s": r.wall_s}  # fmt: skip
+                   "verified": r.verified, "done_truth": r.truly_done, "wall_s": r.wall_s, "load_fault": r.load_fault,
+                   "ran_again_after": r.ran_again_after, "load_1min": r.load_1min}  # fmt: skip
             if r.case.in_grammar:
                 row |= stage1(r, folder / "runs" / r.case.id)
             runs.append(row)
@@ -102,8 +111,14 @@ def main() -> int:
         "in_grammar_runs": len(in_grammar),
         "verified": sum(r.verified for r in in_grammar),
         "done_truth": sum(r.truly_done is True for r in in_grammar),
+        "verified_and_done_fraction": round(
+            sum(r.verified and r.truly_done is True for r in in_grammar) / max(len(in_grammar), 1), 3
+        ),
         "false_successes": table.total.false_successes,
         "false_failures": table.total.false_failures,
+        "load_faults": table.total.load_faults,
+        "ran_again_after_load_fault": sum(r.ran_again_after is not None for r in in_grammar),
+        "stepped": args.stepped,
         "failed_in": table.total.failed_in,
         "median_wall_s": table.total.median_wall_s,
         "by_action": [row.model_dump() for row in table.by_action],

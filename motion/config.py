@@ -17,6 +17,13 @@ class MotionConfig(StrictModel):
     speed_scale: float = Field(
         default=1.0, gt=0, le=1, description="fraction of the safety velocity/acceleration/jerk limits used to time"
     )
+    push_tcp_speed_m_s: float = Field(
+        default=0.1,
+        gt=0,
+        le=1.0,
+        description="TCP speed limit of a straight push: a faster one throws the object on past where the fingers "
+        "stop, or tips it",
+    )
     blend_free_moves: bool = Field(
         default=True,
         description="cross the interior waypoints of free-space moves (approach, home) without stopping, where the "

@@ -75,8 +75,26 @@ class StateBudgets(StrictModel):
     grounding: float = Field(default=30.0, gt=0, le=MAX_STATE_BUDGET_S)
     planning: float = Field(default=60.0, gt=0, le=MAX_STATE_BUDGET_S)
     awaiting_confirm: float = Field(default=120.0, gt=0, le=MAX_STATE_BUDGET_S)
+    rechecking: float = Field(default=30.0, gt=0, le=MAX_STATE_BUDGET_S)
     executing: float = Field(default=120.0, gt=0, le=MAX_STATE_BUDGET_S)
     verifying: float = Field(default=15.0, gt=0, le=MAX_STATE_BUDGET_S)
+
+
+class SecondLookConfig(StrictModel):
+    """The second look right before moving: capture again, compare with the capture the plan was made from."""
+
+    enabled: bool = True
+    depth_change_m: float = Field(
+        default=0.01, ge=0.002, le=0.2, description="a pixel changed when its depth changed by more than this"
+    )
+    min_area_m2: float = Field(
+        default=2e-4, ge=1e-6, le=0.1, description="a changed region smaller than this is noise (2 cm^2)"
+    )
+    target_shift_m: float = Field(
+        default=0.005, ge=0, le=0.1, description="the target may have moved this far and the plan still holds"
+    )
+    target_turn_deg: float = Field(default=5.0, ge=0, le=90, description="... and turned this much")
+    max_replans: int = Field(default=2, ge=0, le=5, description="replans after a change before the run refuses")
 
 
 class RuntimeConfig(StrictModel):
@@ -99,6 +117,7 @@ class RuntimeConfig(StrictModel):
         default=None,
         description="an e-stop writes it and later runs start ESTOPPED until a reset removes it (set on real robots)",
     )
+    second_look: SecondLookConfig = SecondLookConfig()
 
 
 class Profile(StrictModel):

@@ -105,6 +105,20 @@ class CollisionWorld:
             held_padding_m=self._held_padding,
         )
 
+    def holding(self, held: Primitive) -> CollisionWorld:
+        """The same world (scene, table, held margin) with `held` in the hand."""
+        return CollisionWorld(
+            self.robot,
+            self.config,
+            obstacles=self._obstacles,
+            points=self._points,
+            held=held,
+            gripper_width_m=self.gripper_width_m,
+            table=self._table,
+            backend=self.backend_name,
+            held_padding_m=self._held_padding,
+        )
+
     # ---- contents ----------------------------------------------------------------------------------------------
     @property
     def obstacles(self) -> tuple[Primitive, ...]:

@@ -291,11 +291,40 @@ def _free_after_push(scene: Scene, o: SceneObject, shift: np.ndarray) -> bool:
     if not _in_reach_and_view(o, pose):
         return False
     outline = placed_footprint(o, pose)
-    return all(
-        footprint_gap(outline, placed_footprint(x, (*x.xy_m, math.radians(x.yaw_deg)))) >= 0.02
-        for x in scene.objects
-        if x.name != o.name
-    )
+    return all(footprint_gap(outline, placed_footprint(x, _pose(x))) >= 0.02 for x in scene.objects if x.name != o.name)
+
+
+def _pose(o: SceneObject) -> tuple[float, float, float]:
+    return (*o.xy_m, math.radians(o.yaw_deg))
+
+
+SIDE_GAP_M = 0.04  # a spot beside a reference: this far from its outline
+SIDE_TURNS_DEG = (0.0, 20.0, -20.0, 40.0, -40.0)  # ... straight that way, or turned this much
+
+
+def _room_beside(scene: Scene, o: SceneObject, ref: SceneObject, relation: str, camera: SimCameraConfig) -> bool:
+    """Whether a person would see room to put o `relation` the reference: a spot that way from it (or up to 40
+    deg off), just clear of its outline, in reach and view, its footprint 2 cm from every other object."""
+    directions = _directions(camera)
+    ref_xy, o_xy = np.array(ref.xy_m), np.array(o.xy_m)
+    side = {"left of": "left", "right of": "right", "behind": "forward", "in front of": "backward"}.get(relation)
+    away = (o_xy - ref_xy) / max(float(np.linalg.norm(o_xy - ref_xy)), 1e-9)  # next to: the side it is on
+    base = directions[side] if side is not None else away
+    outline = np.concatenate(placed_footprint(ref, _pose(ref)))
+    others = [placed_footprint(x, _pose(x)) for x in scene.objects if x.name not in (o.name, ref.name)]
+    others.append(placed_footprint(ref, _pose(ref)))
+    for turn in np.radians(SIDE_TURNS_DEG):
+        c, s = math.cos(turn), math.sin(turn)
+        d = np.array([c * base[0] - s * base[1], s * base[0] + c * base[1]])
+        reach = float(np.max((outline - ref_xy) @ d))
+        xy = ref_xy + d * (reach + SIDE_GAP_M + half_extent(_fields(o), o.kind))
+        pose = (float(xy[0]), float(xy[1]), math.radians(o.yaw_deg))
+        if not _in_reach_and_view(o, pose):
+            continue
+        spot = placed_footprint(o, pose)
+        if all(footprint_gap(spot, other) >= 0.02 for other in others):
+            return True
+    return False
 
 
 def _tasks_of(rng: np.random.Generator, scene: Scene, camera: SimCameraConfig) -> list[Task]:
@@ -317,11 +346,12 @@ def _tasks_of(rng: np.random.Generator, scene: Scene, camera: SimCameraConfig) -
                     tasks.append(Task(f"put {x()} on {_say(rng, scene, ref.name)}", "place", o.name, ref.name, "on"))
                 if "container" in ref_roles and _fits(o, ref):
                     tasks.append(Task(f"put {x()} in {_say(rng, scene, ref.name)}", "place", o.name, ref.name, "in"))
-                relation = str(rng.choice(SIDE_RELATIONS))
+                relations = [str(r) for r in rng.permutation(SIDE_RELATIONS)]
+                relation = next((r for r in relations if _room_beside(scene, o, ref, r, camera)), None)
                 verb = str(rng.choice(("put", "place", "move")))
-                tasks.append(
-                    Task(f"{verb} {x()} {relation} {_say(rng, scene, ref.name)}", "place", o.name, ref.name, relation)
-                )
+                if relation is not None:  # a person asks for a place there is room for
+                    phrase = f"{verb} {x()} {relation} {_say(rng, scene, ref.name)}"
+                    tasks.append(Task(phrase, "place", o.name, ref.name, relation))
         if "rotatable" in roles:
             angle = int(rng.choice((30, 45, 60, 90)))
             sense = str(rng.choice(("", " clockwise", " counterclockwise")))

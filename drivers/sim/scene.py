@@ -548,7 +548,8 @@ def add_object(
             _geom(body, o, 1 + k, mat, type="box", size=_f((hx, hy, sz / 2)), pos=_f((px, py, sz / 2)))
         # lid hinged along the back (-x) top edge; angle 0 = closed, positive opens upward. The hinge is stiff like
         # a real one (friction 0.02 N m, four times the 50 g lid's weight torque 10 deg past upright): an open lid
-        # stays where it was left, one pushed nearly shut falls shut
+        # stays where it was left, one pushed nearly shut falls shut. The friction is a hard constraint (solimp near
+        # 1): MuJoCo's default softness let an open lid creep 0.4 deg/s, 10 deg by the time a plan was made
         lid = ET.SubElement(body, "body", name=f"{o.name}_lid", pos=_f((-sx / 2, 0, sz)))
         ET.SubElement(
             lid,
@@ -560,6 +561,7 @@ def add_object(
             damping="0.05",
             frictionloss="0.02",
             solreffriction="0.004 1",
+            solimpfriction="0.999 0.9999 0.001",
             ref="0",
         )
         lid_rgb = COLORS[o.lid_color] if o.lid_color else tuple(0.8 * c for c in COLORS[o.color])

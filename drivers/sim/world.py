@@ -7,7 +7,9 @@ its own thread (`realtime`, like hardware: time passes whether or not anyone com
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import threading
 import time
 import xml.etree.ElementTree as ET
@@ -28,6 +30,7 @@ TABLE_SIZE_M = (1.4, 1.6, 0.04)
 TABLE_CENTER_XY_M = (0.3, 0.0)
 CAMERA_NAME = "femto_bolt"
 MAX_RENDER_SIZE = (1920, 1080)
+PHYSICS_NICE = -10  # the real-time physics thread's nice value where permitted
 
 
 def look_at(position: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -236,6 +239,21 @@ class SimWorld:
             T[:3, 3] = body.xpos
             return T
 
+    def displace(self, name: str, dx_m: float, dy_m: float, dyaw_rad: float = 0.0) -> None:
+        """Move a free object on the table as a person would nudge it: shifted by (dx, dy) and turned about the
+        vertical through its centre, at rest; the physics settles it from there (tests of a scene that changed)."""
+        joint = self.model.joint(f"{name}_free")
+        adr, dof = joint.qposadr[0], joint.dofadr[0]
+        with self.lock:
+            qpos = self.data.qpos
+            qpos[adr : adr + 2] += (dx_m, dy_m)
+            turn = np.array([math.cos(dyaw_rad / 2), 0.0, 0.0, math.sin(dyaw_rad / 2)])
+            quat = np.empty(4)
+            mujoco.mju_mulQuat(quat, turn, qpos[adr + 3 : adr + 7].copy())
+            qpos[adr + 3 : adr + 7] = quat
+            self.data.qvel[dof : dof + 6] = 0.0
+            mujoco.mj_forward(self.model, self.data)
+
     def camera_pose(self) -> np.ndarray:
         """Ground-truth T_world_camera now (it moves with the flange when the camera is mounted there)."""
         if self.T_flange_camera is None:
@@ -289,6 +307,11 @@ class SimWorld:
             self._thread = None
 
     def _run(self) -> None:
+        # the twin stands for the robot, which keeps time whatever the PC's load: a higher share of the CPU where
+        # permitted (a nicer-than-normal thread, not a real-time one: a real-time thread holding the GIL would
+        # starve the process's other threads, the Zenoh callbacks that receive heartbeats among them)
+        with contextlib.suppress(OSError, AttributeError):
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), PHYSICS_NICE)
         dt = self.model.opt.timestep
         t0_wall, t0_sim = time.perf_counter(), self.data.time
         while self._running.is_set():

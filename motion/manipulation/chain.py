@@ -26,7 +26,12 @@ REACH_TOL_M, REACH_TOL_RAD = 1e-3, 1e-2  # the contact's joints must put the TCP
 
 
 class ManipulationRefused(RuntimeError):
-    """A phase of the manipulation cannot be planned or approved; the message names the piece and why."""
+    """A phase of the manipulation cannot be planned or approved; the message names the piece and why. searched:
+    a randomised search found no path (another attempt may); else the refusal is the same on every attempt."""
+
+    def __init__(self, message: str, searched: bool = False) -> None:
+        super().__init__(message)
+        self.searched = searched
 
 
 class ManipulationChain:
@@ -96,7 +101,7 @@ class ManipulationChain:
         try:
             return planner.plan(qa, qb).waypoints
         except PlanningError as e:
-            raise ManipulationRefused(f"{what}: {e}") from e
+            raise ManipulationRefused(f"{what}: {e}", searched=True) from e
 
     def approved(
         self,
@@ -109,8 +114,8 @@ class ManipulationChain:
     ) -> ApprovedTrajectory:
         """Timed and approved by the gate. A free move (no contact in it) may blend through its waypoints, its
         corners cut where that stays clear and kept only where the gate accepts the bent path; everything else
-        rests at each waypoint, on the checked lines. tcp_speed_m_s: a slower TCP than the safety limit (a tool
-        pushing small parts)."""
+        rests at each waypoint, on the checked lines. tcp_speed_m_s: a slower TCP than the safety limit (a push,
+        a tool pushing small parts)."""
         blend = free_move and self.motion.blend_free_moves
         if blend:  # only paths with corners (a direct move has none, and cutting builds an inflated world)
             steps = [self.planner(world).smooth(s) if isinstance(s, np.ndarray) and len(s) > 2 else s for s in steps]

@@ -5,9 +5,12 @@ The safety gate checks a trajectory against one collision world, and the world c
 the sequence is cut where it changes and each phase is approved against its own world. The arm rests at every
 cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
   grasp:  approach (free path to the pre-grasp pose; the object is an obstacle) -> grasp (straight in, close,
-          straight up) -> carry (object attached to the TCP: free path above the place pose, straight down, open)
-          -> retreat (straight up) -> home (the placed object is an obstacle)
-  push:   approach (free path, close the fingers) -> push (straight in, push along the motion, back up) -> home
+          straight up) -> carry (object attached to the TCP: free path above the place pose, straight down to the
+          release, open as wide as the approach did) -> retreat (back along the approach axis, else straight up)
+          -> home (the placed object is an obstacle). The release is the contact's: just above the goal, or higher
+          where the fingers would touch the scene lower (a container's walls), the object dropping the rest.
+  push:   approach (free path, close the fingers) -> push (straight in, push along the motion at
+          motion.push_tcp_speed_m_s, back off along the tilted hand, else straight up) -> home
   hinge:  as push, the push following the via poses along the hinged part's arc (a Cartesian line between each
           two), ending just off the turned part, whence straight up is away from it
   lift:   approach -> grasp (straight in, close, up until the held object clears the padded table) -> lift (the
@@ -28,7 +31,9 @@ from motion.approval import ApprovedTrajectory
 from motion.goals import lifted
 from motion.manipulation.chain import ManipulationChain, ManipulationRefused
 from motion.manipulation.contact import Contact
+from motion.planner import Planner
 from motion.timing import GripperAction
+from safety.collision import CollisionWorld
 from safety.geometry import transform_points
 
 LIFT_M = 0.10  # straight up after grasping / after releasing
@@ -77,7 +82,6 @@ def _approach(chain: ManipulationChain, contact: Contact) -> tuple[ApprovedTraje
 
 
 def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
-    g = chain.robot.spec.gripper
     if len(contact.T_place) != 2 or len(contact.q_place) != 2:
         raise ManipulationRefused(
             f"grasp: the contact carries {len(contact.T_place)} poses to set the object down from (need the "
@@ -97,13 +101,15 @@ def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     q_above = chain.checked(carry_planner, q_above, T_above, "pose above the place")
     to_above = chain.free(carry_planner, lift[-1], q_above, "carry path")
     place = chain.line(carry_planner, q_above, T_place, "descent to the place pose")
-    release = GripperAction("open", OPEN_S, g.max_width_m)
+    # let go only as wide as the approach opened: in a container, beside a neighbour, wider fingers may touch
+    release = GripperAction("open", OPEN_S, contact.open_width_m)
     carry = chain.approved([to_above, place, release], carry_world, lift[-1], "carry")
 
-    released = chain.world(g.max_width_m)
-    up = chain.line(chain.planner(released), place[-1], T_above, "retreat")
+    released = chain.world(contact.open_width_m)
+    after = _after(chain, contact, contact.open_width_m)
+    up = _retreat(chain, chain.planner(released), place[-1], T_place, after, "retreat", (T_above,))
     retreat = chain.approved([up], released, place[-1], "retreat")
-    home = _home(chain, contact, g.max_width_m, up[-1])
+    home = _home(chain, after, up[-1])
     phases = (approach, grasp, carry, retreat, home)
     waypoints = {"pre-grasp": contact.T_pre, "grasp": contact.T_contact, "place": T_place}
     return ManipulationPlan(phases, ("approach", "grasp", "carry", "retreat", "home"), contact, waypoints)
@@ -145,17 +151,59 @@ def plan_push(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     for k, T in enumerate((*contact.via, contact.T_goal), start=1):
         what = f"push (arc pose {k} of {len(contact.via) + 1})" if contact.via else "push"
         path.append(chain.line(planner, path[-1][-1], T, what))
-    back = chain.line(planner, path[-1][-1], lifted(contact.T_goal, LIFT_M), "retreat after the push")
-    pushing = chain.approved([*path, back], touching, q_pre, "push")
-    home = _home(chain, contact, g.min_width_m, back[-1])
+    after = _after(chain, contact, g.min_width_m)
+    up = (lifted(contact.T_goal, LIFT_M),)
+    # a hinge push ends just off the part it shut: straight up; a straight push ends with the fingertips at the
+    # object: back off along the tilted hand first
+    back = _retreat(chain, planner, path[-1][-1], contact.T_goal, after, "retreat after the push", up, not contact.via)
+    # a straight push moves a free object, which a fast one throws on past the fingers; a hinged part cannot go on
+    speed = None if contact.via else chain.motion.push_tcp_speed_m_s
+    pushing = chain.approved([*path, back], touching, q_pre, "push", tcp_speed_m_s=speed)
+    home = _home(chain, after, back[-1])
     arc = {f"arc {k}": T for k, T in enumerate(contact.via, start=1)}
     waypoints = {"pre-push": contact.T_pre, "contact": contact.T_contact, **arc, "push end": contact.T_goal}
     return ManipulationPlan((approach, pushing, home), ("approach", "push", "home"), contact, waypoints)
 
 
-def _home(chain: ManipulationChain, contact: Contact, width_m: float, q_start: np.ndarray) -> ApprovedTrajectory:
+def _after(chain: ManipulationChain, contact: Contact, width_m: float) -> CollisionWorld:
+    """The world once the object was let go: the object where it now is, an obstacle."""
+    return chain.world(width_m, obstacle=transform_points(contact.T_motion, chain.target_points))
+
+
+def _retreat(
+    chain: ManipulationChain,
+    planner: Planner,
+    q_from: np.ndarray,
+    T_from: np.ndarray,
+    after: CollisionWorld,
+    what: str,
+    poses: tuple[np.ndarray, ...],
+    back_first: bool = True,
+) -> np.ndarray:
+    """Away from what the hand just let go: back along its approach axis by LIFT_M (a side grasp's fingers leave
+    a stood-up bottle sideways, a tilted push's tips leave the object's face), then the given poses (above the
+    place), the first line that is free and ends clear of the object where it now is (the way home starts
+    there)."""
+    backed = T_from.copy()
+    backed[:3, 3] -= LIFT_M * T_from[:3, 2]
+    tries = [backed, *poses] if back_first else list(poses)
+    tries = [T for k, T in enumerate(tries) if all(np.linalg.norm(T[:3, 3] - P[:3, 3]) > 1e-3 for P in tries[:k])]
+    home_planner = chain.planner(after)
+    first: ManipulationRefused | None = None
+    for T in tries:
+        try:
+            path = chain.line(planner, q_from, T, what)
+        except ManipulationRefused as e:
+            first = first or e
+            continue
+        if home_planner.valid(path[-1]):
+            return path
+        first = first or ManipulationRefused(home_planner.why_invalid(path[-1], f"{what}: the end of the"))
+    raise first
+
+
+def _home(chain: ManipulationChain, world: CollisionWorld, q_start: np.ndarray) -> ApprovedTrajectory:
     """Back to the home posture, with the object where it now is as an obstacle."""
-    world = chain.world(width_m, obstacle=transform_points(contact.T_motion, chain.target_points))
     path = chain.free(chain.planner(world), q_start, chain.home, "path home")
     return chain.approved([path], world, q_start, "home", free_move=True)
 

@@ -2,16 +2,25 @@
 
 Modes: grasp, push (straight, horizontal) and hinge (an arc push turning a hinged part, hinge.py).
 Filters, in order of cost: orientation cone; gripper boxes against the scene (target excluded) and the table;
-along an arc and at the goal, the gripper, and the placed object, against the scene; IK (the safety model's) of
-the pre-contact, contact, arc and goal poses (a grasp's goal with the poses config.place_lifts_m above it that
-the object is set down from), optionally collision-free in a safety CollisionWorld. Every rejection is counted
-under a readable reason so a refusal says what ruled the candidates out.
+along an arc and at the goal (a push's end; a grasp's release), the gripper, and the placed object, against the
+scene; IK (the safety model's) of the pre-contact, contact, arc and goal poses (a grasp's goal with the poses
+above it the object is set down from), optionally collision-free in a safety CollisionWorld. Every rejection is
+counted under a readable reason so a refusal says what ruled the candidates out.
 
-Two freedoms the candidates do not spell out are used when a candidate's IK fails. The parallel gripper looks the
-same after a half turn about its approach axis, but the wrist does not (link7 is off its axis): one twin may
-fold link5 onto link7 where the other is free. And a grasped body of revolution (symmetry.py) reaches the same
-goal turned about its own axis, a turn the images cannot show, so the goal is also tried turned about that axis;
-the plan then carries the object motion it realises (ContactPlan.T_motion).
+A grasp lets go of the object config.place_lifts_m[0] above its goal, or higher (up to config.max_drop_m more)
+where the gripper would touch the scene there: into a container whose walls are taller than the fingers are
+long, onto an object that stands close, the fingers stay above the rim and the object drops the rest. The gripper
+is checked there holding the object and opened as far as it opens to let go, and the joints there and above must
+be free of the scene with the object in the hand (the carry's own world).
+
+Two freedoms the candidates do not spell out are used. The parallel gripper looks the same after a half turn about
+its approach axis, but the wrist does not (link7 is off its axis): one twin may fold link5 onto link7 where the
+other is free, so each twin that is reachable is a plan of its own, the one nearer the hand's present turn first.
+And a grasped body of revolution (symmetry.py) reaches the same
+goal turned about its own axis, a turn the images cannot show, so the goal is also tried turned about that axis:
+first by the turn that keeps the gripper most upright at the goal (the registration's turn about the axis is
+arbitrary, and a lying bottle's may roll the grasp into the table), then in 45 deg steps; the plan then carries
+the object motion it realises (ContactPlan.T_motion).
 """
 
 from __future__ import annotations
@@ -32,15 +41,23 @@ from pipeline.contact.sampling import (
     push_candidates,
     support_height,
 )
-from pipeline.contact.symmetry import revolution_axis, turn_deg
+from pipeline.contact.symmetry import ball_centre, revolution_axis, turn_deg
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
-from safety.geometry import transform_points
+from safety.collision import CollisionWorld
+from safety.geometry import Primitive, transform_points
 from safety.ik import IKSettings
 from safety.robot_model import RobotModel
 
 IK_SETTINGS = IKSettings(restarts=6, max_iterations=80)
+# the goal and set-down poses, seeded from the contact's joints: most are reached from the seed or not at all, and
+# a body of revolution tries them under several turns, so a failing one must fail fast
+GOAL_IK_SETTINGS = IKSettings(restarts=2, max_iterations=60)
+MAX_TURNS_TRIED = 8  # a body of revolution's goal turns tried per contact, the most natural for the wrist first
 HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the TCP's approach axis: the same grasp, the other wrist
 SPIN_DEG = (45.0, -45.0, 90.0, -90.0, 135.0, -135.0, 180.0)  # turns of a body of revolution about its axis
+UPRIGHT_STEP_DEG = 5.0  # the search for the turn about a body's axis that keeps a top grasp upright
+DROP_STEP_M = 0.01  # release heights tried above the lowest
+CELL_MARGIN_M = 0.009  # the gate sees the scene's points as 1 cm cells: a release this much clearer passes it
 
 
 def plan_contacts(
@@ -93,47 +110,68 @@ def plan_contacts(
         rejected.update(why)
     else:
         shift = transform_points(T_base_motion, pts.mean(axis=0)[None])[0] - pts.mean(axis=0)
-        candidates = push_candidates(pts, shift, cfg)
+        g = robot.spec.gripper
+        fingers = GripperBoxes(robot, 0.0).corners_tcp(g.min_width_m, g.finger_links)
+        candidates = push_candidates(pts, shift, cfg, gripper.corners_tcp(g.min_width_m), fingers)
         if not candidates:
             rejected["no horizontal motion to push along"] += 1
     total = len(candidates) + sum(rejected.values())
     motions = _motions(pts, T_base_motion, mode)
     scene_tree = cKDTree(scene) if len(scene) else None
-    goal_check = _GoalCheck(cfg, gripper, scene, scene_tree, [transform_points(M, pts) for M in motions])
-    geometric = []
+    placing = _Placing(pts, object_name, robot.tcp_frame)
+    goal_check = _GoalCheck(cfg, robot, scene, scene_tree, [transform_points(M, pts) for M in motions], placing)
+    geometric, drops = [], {}
     for c in candidates:
-        reason = _contact_reason(c, cfg, gripper, scene, robot) or goal_check.first_reason(c, motions)
+        reason = _contact_reason(c, cfg, gripper, scene, robot)
+        if not reason:
+            drops[id(c)], reason = goal_check.least_drop(c, motions)
         if reason:
             rejected[reason] += 1
         else:
             geometric.append(c)
     w = cfg.weights
+    # the object let go lowest first (a narrow can dropped beside a neighbour tips over), then the best scored
     geometric.sort(
-        key=lambda c: -(w["antipodal"] * c.antipodal + w["centred"] * c.centred + w["approach"] * c.approach)
+        key=lambda c: (
+            round(drops[id(c)] * 100),
+            -(w["antipodal"] * c.antipodal + w["centred"] * c.centred + w["approach"] * c.approach),
+        )
     )
     plans = []
     seed = robot.home_q if q_seed is None else np.asarray(q_seed, dtype=np.float64)
-    placing = _Placing(pts, object_name, robot.tcp_frame)
     for c in geometric[: cfg.ik_candidates]:
         try:
-            plans.append(_reachable_plan(c, cfg, robot, seed, motions, goal_check, collision_world, placing))
+            plans += _reachable_plans(c, cfg, robot, seed, motions, goal_check, collision_world, placing)
         except _Unreachable as e:
             rejected[e.reason] += 1
-        if len(plans) == cfg.keep:
+        if len(plans) >= cfg.keep:
+            plans = plans[: cfg.keep]
             break
     rejected["not checked for reachability (enough plans)"] += max(0, len(geometric) - cfg.ik_candidates)
-    # the grounded motion first, then the least turn about a body's axis: the turn is not in the images, but the
-    # verification's registration may still see part of it
-    plans.sort(key=lambda p: (round(turn_deg(p.T_motion, T_base_motion)), -p.score))
+    # the object let go lowest first; then the grounded motion, then the least turn about a body's axis: the turn
+    # is not in the images, but the verification's registration may still see part of it
+    plans.sort(key=lambda p: (round(_drop(p, cfg) * 100), round(turn_deg(p.T_motion, T_base_motion)), -p.score))
     return ContactResult(plans, {k: v for k, v in rejected.items() if v}, total)
 
 
 def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> list[np.ndarray]:
-    """The object motion, then (a grasped body of revolution) the same goal turned about the body's own axis."""
-    axis = revolution_axis(points) if mode == "grasp" else None
+    """The object motion, then (a grasped body of revolution) the same goal turned about the body's own axis: by
+    the turn that keeps the vertical most vertical (a top grasp stays upright), then in SPIN_DEG steps; for a
+    grasped ball only its centre's move (the registration's turn of a ball is arbitrary)."""
+    if mode != "grasp":
+        return [T_motion]
+    centre = ball_centre(points)
+    if centre is not None:  # no turn of a ball shows: its goal is where its centre goes, carried without a turn
+        T = np.eye(4)
+        T[:3, 3] = T_motion[:3, :3] @ centre + T_motion[:3, 3] - centre
+        return [T]
+    axis = revolution_axis(points)
     if axis is None:
         return [T_motion]
-    return [T_motion, *(T_motion @ axis.turn(np.radians(a)) for a in SPIN_DEG)]
+    turns = np.radians(np.arange(-180.0, 180.0, UPRIGHT_STEP_DEG))
+    upright = max(turns, key=lambda a: (T_motion @ axis.turn(a))[2, 2])
+    spins = [T_motion @ axis.turn(a) for a in (upright, *np.radians(SPIN_DEG))]
+    return [T_motion, *(M for M in spins if turn_deg(M, T_motion) > 1.0)]
 
 
 def _contact_reason(
@@ -159,10 +197,22 @@ def _contact_reason(
 
 
 class _GoalCheck:
-    """The gripper at the goal against table and scene, and the moved object against the scene, per motion."""
+    """At the goal, per motion: a push's gripper against table and scene; a grasp's moved object against the scene
+    and the height it is let go from (the lowest at which the gripper, holding and opened, clears both)."""
 
-    def __init__(self, cfg: ContactConfig, gripper: GripperBoxes, scene, scene_tree, moved: list[np.ndarray]) -> None:
-        self.cfg, self.gripper, self.scene, self.tree = cfg, gripper, scene, scene_tree
+    def __init__(
+        self,
+        cfg: ContactConfig,
+        robot: RobotModel,
+        scene: np.ndarray,
+        scene_tree: cKDTree | None,
+        moved: list[np.ndarray],
+        placing: _Placing,
+    ) -> None:
+        self.cfg, self.robot, self.scene, self.tree, self.placing = cfg, robot, scene, scene_tree, placing
+        self.gripper = GripperBoxes(robot, cfg.collision_padding_m)
+        self.clearance = cfg.collision_padding_m + CELL_MARGIN_M
+        self.releasing = GripperBoxes(robot, self.clearance)
         self.placed_reason = [self._placed_reason(m) for m in moved]
 
     def _placed_reason(self, moved: np.ndarray) -> str:
@@ -171,19 +221,58 @@ class _GoalCheck:
         d, _ = self.tree.query(moved, distance_upper_bound=self.cfg.placed_clearance_m)
         return "placed object overlaps the scene" if np.isfinite(d).mean() > 0.02 else ""
 
-    def reason(self, c: Candidate, T_goal: np.ndarray, k: int) -> str:
-        """Why the candidate cannot end at T_goal under the k-th motion (empty when it can)."""
-        held_width = c.object_width_m if c.mode == "grasp" else 0.0
-        if self.gripper.lowest_z(T_goal, held_width) < 0.0:
-            return "gripper below the table at the goal"
-        if self.gripper.hits_points(T_goal, held_width, self.scene):
-            return "gripper hits the scene at the goal"
-        return self.placed_reason[k] if c.mode == "grasp" else ""
+    def _clear(self, T: np.ndarray, widths: tuple[float, ...], gripper: GripperBoxes | None = None) -> str:
+        gripper = gripper or self.gripper
+        for w in widths:
+            if gripper.lowest_z(T, w) < 0.0:
+                return "below the table"
+            if gripper.hits_points(T, w, self.scene):
+                return "hits the scene"
+        return ""
 
-    def first_reason(self, c: Candidate, motions: list[np.ndarray]) -> str:
-        """The first motion's reason when the candidate can end under none of them (empty when it can)."""
-        reasons = [self.reason(c, _goal(c, M), k) for k, M in enumerate(motions)]
-        return "" if not all(reasons) else reasons[0]
+    def _held_clear(self, held: Primitive, T_base_tcp: np.ndarray) -> bool:
+        """The object's box in the hand at T_base_tcp keeps the gate's clearance from the scene."""
+        if not len(self.scene):
+            return True
+        T_geom_base = np.linalg.inv(T_base_tcp @ held.T_link_geom)
+        return not held.contains(transform_points(T_geom_base, self.scene)).any()
+
+    def ending(self, c: Candidate, T_goal: np.ndarray, k: int) -> tuple[tuple[float, ...], str]:
+        """(set-down heights above T_goal, why the candidate cannot end at T_goal under the k-th motion): a push
+        ends at T_goal (no heights); a grasp lets go at the release height, config.place_lifts_m[0] or up to
+        config.max_drop_m higher, and passes config.place_lifts_m's others raised as much (without place lifts:
+        the object is set down at T_goal itself). The reason is empty when it can end there."""
+        if c.mode != "grasp":
+            why = self._clear(T_goal, (0.0,))
+            return (), f"gripper {why} at the goal" if why else ""
+        if self.placed_reason[k]:
+            return (), self.placed_reason[k]
+        lifts = self.cfg.place_lifts_m
+        if not lifts:  # set down at the goal itself
+            why = self._clear(T_goal, (c.object_width_m,))
+            return (), f"gripper {why} at the goal" if why else ""
+        widths = (c.object_width_m, _open_width(c, self.cfg, self.robot))
+        p = self.placing
+        held = held_box(p.points, c.T_contact, tcp_link=p.tcp_link, name=p.name).padded(self.clearance)
+        why = ""
+        for extra in np.arange(0.0, self.cfg.max_drop_m + 1e-9, DROP_STEP_M):
+            T = T_goal.copy()
+            T[2, 3] += lifts[0] + extra
+            why = self._clear(T, widths, self.releasing)
+            if not why and not self._held_clear(held, T):
+                why = "holds the object against the scene"
+            if not why:
+                return tuple(h + float(extra) for h in lifts), ""
+        return (), f"gripper {why} at every release height"
+
+    def least_drop(self, c: Candidate, motions: list[np.ndarray]) -> tuple[float, str]:
+        """(the least height beyond place_lifts_m[0] the object is let go from under any motion, "") or (0, the
+        first motion's reason) when the candidate can end under none of them."""
+        endings = [self.ending(c, _goal(c, M), k) for k, M in enumerate(motions)]
+        lifts = [h[0] - (self.cfg.place_lifts_m or (0.0,))[0] for h, why in endings if not why and h]
+        if any(not why for _, why in endings):
+            return (min(lifts) if lifts else 0.0), ""
+        return 0.0, endings[0][1]
 
 
 def _goal(c: Candidate, T_motion: np.ndarray) -> np.ndarray:
@@ -201,6 +290,17 @@ def _pre_contact(c: Candidate, distance_m: float) -> np.ndarray:
     out = c.T_contact.copy()
     out[:3, 3] += distance_m * (-c.T_contact[:3, 2] if c.back_off is None else c.back_off)
     return out
+
+
+def _drop(plan: ContactPlan, cfg: ContactConfig) -> float:
+    """How much higher than place_lifts_m[0] above its goal the plan lets the object go (0 for a push)."""
+    if not plan.T_place or not cfg.place_lifts_m:
+        return 0.0
+    return float(plan.T_place[0][2, 3] - plan.T_goal[2, 3] - cfg.place_lifts_m[0])
+
+
+def _turn_rad(R_a: np.ndarray, R_b: np.ndarray) -> float:
+    return float(np.arccos(np.clip((np.trace(R_a.T @ R_b) - 1.0) / 2.0, -1.0, 1.0)))
 
 
 def _half_turn(c: Candidate) -> Candidate:
@@ -230,7 +330,7 @@ class _Placing:
     tcp_link: str
 
 
-def _reachable_plan(
+def _reachable_plans(
     c: Candidate,
     cfg: ContactConfig,
     robot: RobotModel,
@@ -239,21 +339,53 @@ def _reachable_plan(
     goal_check: _GoalCheck,
     world,
     placing: _Placing,
-) -> ContactPlan:
-    """The candidate's plan, from the first wrist twin and object motion whose poses all have IK; else _Unreachable
-    with why the candidate as sampled (first twin, first motion) fails."""
-    accept, accept_goal = None, None
-    if world is not None:
-        width = _open_width(c, cfg, robot)
-        accept = lambda q: not world.in_collision(q, width)  # noqa: E731
-        accept_goal = lambda q: all(k.kind == "collision" for k in world.check(q, width))  # noqa: E731
-    first: _Unreachable | None = None
-    for twin in (c, _half_turn(c)):
+) -> list[ContactPlan]:
+    """The candidate's plan for each wrist twin whose poses all have IK (under the first object motion that has),
+    the twin nearer the hand's present turn first: the other may be half a turn of joint 7 away, where a path is
+    long and often not found, or be the one whose lines the arm can follow; else _Unreachable with why the
+    candidate fails (the first twin tried)."""
+    R_now = robot.tcp_pose(seed)[:3, :3]
+    twins = sorted((c, _half_turn(c)), key=lambda t: _turn_rad(R_now, t.T_contact[:3, :3]))
+    plans, first = [], None
+    for twin in twins:
         try:
-            return _twin_plan(twin, cfg, robot, seed, motions, goal_check, accept, accept_goal, placing)
+            accepts = _Acceptance(twin, cfg, robot, world, placing)
+            plans.append(_twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing))
         except _Unreachable as e:
             first = first or e
-    raise first
+    if not plans:
+        raise first
+    return plans
+
+
+class _Acceptance:
+    """Which IK solutions a twin's poses accept, in the gate's scene (collision_world; none: every solution).
+
+    approach: the pre-contact, contact and arc poses, free with the fingers at the approach opening; goal: the goal
+    pose itself, free of self-collision, workspace and keep-out (the object is set down from above it); place: a
+    grasp's release and the pose above it, free of everything, the object in the hand (the carry's world), the
+    fingers holding it and opened to let go."""
+
+    def __init__(self, c: Candidate, cfg: ContactConfig, robot: RobotModel, world, placing: _Placing) -> None:
+        self.c, self.world, self.placing = c, world, placing
+        self.width = _open_width(c, cfg, robot)
+        self._carrying: CollisionWorld | None = None
+
+    def approach(self, q: np.ndarray) -> bool:
+        return not self.world.in_collision(q, self.width)
+
+    def goal(self, q: np.ndarray) -> bool:
+        return all(k.kind == "collision" for k in self.world.check(q, self.width))
+
+    def place(self, q: np.ndarray) -> bool:
+        if self._carrying is None:
+            w, p = self.world, self.placing
+            held = held_box(p.points, self.c.T_contact, tcp_link=p.tcp_link, name=p.name)
+            self._carrying = w.holding(held)
+        return not any(self._carrying.in_collision(q, w) for w in (self.c.object_width_m, self.width))
+
+    def of(self, what: str):
+        return None if self.world is None else getattr(self, what)
 
 
 def _twin_plan(
@@ -263,8 +395,7 @@ def _twin_plan(
     seed: np.ndarray,
     motions: list[np.ndarray],
     goal_check: _GoalCheck,
-    accept,
-    accept_goal,
+    accepts: _Acceptance,
     placing: _Placing,
 ) -> ContactPlan:
     """The plan of this twin under the first motion whose goal passes the goal checks and has IK; else
@@ -273,35 +404,56 @@ def _twin_plan(
     qs = []
     arc = [(T, "arc") for T in c.via]
     for T, where in ((T_pre, "pre-contact"), (c.T_contact, "contact"), *arc):
-        r = robot.ik(T, qs[-1] if qs else seed, settings=IK_SETTINGS, accept=accept)
+        r = robot.ik(T, qs[-1] if qs else seed, settings=IK_SETTINGS, accept=accepts.of("approach"))
         if not r.success:
             raise _Unreachable(f"{where} pose out of reach")
         qs.append(r.q)
-    lifts = cfg.place_lifts_m if c.mode == "grasp" else ()
-    for k, M in enumerate(motions):
+    first = ""
+    for k in _turns_to_try(c, motions, robot):
+        M = motions[k]
         T_goal = _goal(c, M)
-        if goal_check.reason(c, T_goal, k):
+        lifts, why = goal_check.ending(c, T_goal, k)
+        if why:
             continue
-        goal = _goal_ik(robot, T_goal, lifts, qs[-1], accept_goal)
-        if goal is not None:
+        goal, why = _goal_ik(robot, T_goal, lifts, qs[-1], accepts)
+        if goal:
             return _plan(c, cfg, robot, T_pre, M, qs, goal, placing)
-    raise _Unreachable("goal pose out of reach")
+        first = first or why
+    raise _Unreachable(first or "goal pose out of reach")
+
+
+def _turns_to_try(c: Candidate, motions: list[np.ndarray], robot: RobotModel) -> list[int]:
+    """The motions (indices) to try for this contact: the grounded one, then up to MAX_TURNS_TRIED - 1 of the turns
+    about a body's axis, those that leave the hand pointing most away from the robot's base first (a hand at the
+    goal pointing back at the arm is one the arm cannot take)."""
+    if len(motions) <= 1:
+        return list(range(len(motions)))
+
+    def away(k: int) -> float:
+        T = _goal(c, motions[k])
+        radial = T[:2, 3] / max(float(np.linalg.norm(T[:2, 3])), 1e-9)
+        return float(T[:2, 2] @ radial)
+
+    return [0, *sorted(range(1, len(motions)), key=away, reverse=True)[: MAX_TURNS_TRIED - 1]]
 
 
 def _goal_ik(
-    robot: RobotModel, T_goal: np.ndarray, lifts: tuple[float, ...], q_from: np.ndarray, accept
-) -> list[tuple[np.ndarray, np.ndarray]] | None:
-    """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last; None if one has
-    none."""
+    robot: RobotModel, T_goal: np.ndarray, lifts: tuple[float, ...], q_from: np.ndarray, accepts: _Acceptance
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], str]:
+    """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last; ([], why) if one
+    has none."""
     out = []
     for lift in (0.0, *lifts):
         T = T_goal.copy()
         T[2, 3] += lift
-        r = robot.ik(T, out[-1][1] if out else q_from, settings=IK_SETTINGS, accept=accept)
+        accept = accepts.of("goal" if not out else "place")
+        r = robot.ik(T, out[-1][1] if out else q_from, settings=GOAL_IK_SETTINGS, accept=accept)
         if not r.success:
-            return None
+            what = "goal pose" if not out else "pose to let go from" if len(out) == 1 else "pose above the place"
+            held = " with the object in the hand" if out and accept is not None else ""
+            return [], f"{what} out of reach{held}"
         out.append((T, r.q))
-    return out
+    return out, ""
 
 
 def _plan(

@@ -4,7 +4,8 @@ Grasps: the fingers close along an axis y, the gripper approaches along z (strai
 toward the object from the robot). The object's width between the pads is measured on the cloud, and the
 antipodal quality is how well the surface normals at the two contact sides line up with y. One camera sees
 only part of an object, so a side with no observed surface counts as half quality instead of failing.
-Pushes: closed fingers placed behind the object, opposite the direction it must move. Arc pushes on hinged
+Pushes: closed fingers placed behind the object, opposite the direction it must move, tips first (see
+push_candidates). Arc pushes on hinged
 parts: hinge.py.
 """
 
@@ -23,6 +24,7 @@ RAISED_M = 0.02  # scene points this high just below an object and around it are
 SUPPORT_REACH_M = 0.04  # ... within this of its outline (the run's scene loses what lies within 1.5 cm of it) ...
 SUPPORT_POINTS = 5  # ... when there are this many (the gate's cloud has a point per cm)
 SUPPORT_CELL_M = 0.01  # the gate sees a support as points, in cells this large
+TABLE_CLEAR_M = 0.002  # a push's padded fingertips this far above the table
 
 
 @dataclass(frozen=True)
@@ -142,22 +144,53 @@ def grasp_candidates(
     return out, rejected
 
 
-def push_candidates(points: np.ndarray, direction: np.ndarray, cfg: ContactConfig) -> list[Candidate]:
-    """Closed fingers behind the object (opposite the horizontal push direction), approaching from above."""
-    d = np.array([direction[0], direction[1], 0.0])
-    if np.linalg.norm(d) < 1e-6:
+def push_candidates(
+    points: np.ndarray,
+    shift: np.ndarray,
+    cfg: ContactConfig,
+    gripper_tcp: np.ndarray,
+    fingers_tcp: np.ndarray,
+) -> list[Candidate]:
+    """Closed fingers behind the object (opposite the horizontal shift), pushing it by the shift.
+
+    The fingers lead with their tips, the hand tilted cfg.push_tilt_deg back from the push: only the tips touch,
+    as low as the padded gripper clears the table (gripper_tcp: its corners, TCP frame), so the push acts below
+    the object's centre of mass and a tall or narrow object slides instead of tipping over; upright fingers
+    pressing with their whole length (the object's lower third and up) are the fallback. Each comes with the
+    broad side of the closed fingers to the object and turned a quarter turn (another wrist; the half turn is the
+    planner's twin). The push ends where the fingers' front (fingers_tcp: unpadded finger corners) has travelled
+    the shift beyond the gap it started from, so the object moves by the shift, not by the shift less the gap.
+    `antipodal` ranks them here (tips first before upright, broad side before quarter-turned), `approach` is 1.
+    """
+    d = np.array([shift[0], shift[1], 0.0])
+    distance = float(np.linalg.norm(d))
+    if distance < 1e-6:
         return []
-    d /= np.linalg.norm(d)
+    d /= distance
     along = points @ d
     back = points[along < np.percentile(along, 5) + 0.005]
+    back_xy, back_along = back[:, :2].mean(axis=0), float(np.percentile(along, 2))  # where the fingers first touch
     centroid = points.mean(axis=0)
     top = float(np.percentile(points[:, 2], 98))
+    up = np.array([0.0, 0.0, 1.0])
     out = []
-    for frac in (0.35, 0.6):
-        height = max(frac * top, cfg.min_tcp_height_m)
-        contact = np.array([*back[:, :2].mean(axis=0), height]) - (cfg.push_standoff_m + 0.01) * d
-        # closing axis across the push so the closed fingers present their broad side to the object
-        T = frame(np.cross([0.0, 0.0, 1.0], d), np.array([0.0, 0.0, -1.0]), contact)
-        lateral = np.linalg.norm((contact - centroid)[:2] - ((contact - centroid)[:2] @ d[:2]) * d[:2])
-        out.append(Candidate("push", T, 0.0, 1.0, 1.0, float(np.clip(1 - lateral / 0.05, 0, 1))))
+    kinds = ((1.0, cfg.push_tilt_deg, False), (0.8, cfg.push_tilt_deg, True), (0.5, 0.0, False), (0.4, 0.0, True))
+    for preference, tilt_deg, quarter in kinds:
+        tilt = np.radians(tilt_deg)
+        z = np.cos(tilt) * -up + np.sin(tilt) * d  # tips toward the object, the hand behind and above
+        y = d if quarter else np.cross(up, d)
+        T = frame(y, z, np.zeros(3))
+        front = float(np.max(fingers_tcp @ T[:3, :3].T @ d))  # how far the fingers reach ahead of the TCP
+        if tilt_deg > 0:  # as low as the padded gripper clears the table
+            height = max(cfg.min_tcp_height_m, -float(np.min(gripper_tcp @ T[:3, :3].T[:, 2])) + TABLE_CLEAR_M)
+        else:
+            height = max(0.35 * top, cfg.min_tcp_height_m)
+        xy = back_xy - (cfg.push_standoff_m + front) * d[:2]
+        T[:3, 3] = [xy[0], xy[1], height]
+        gap = back_along - (T[:3, 3] @ d + front)  # between the fingers' front and the object's back
+        T_goal = T.copy()
+        T_goal[:3, 3] += (distance + gap) * d
+        lateral = np.linalg.norm((T[:2, 3] - centroid[:2]) - ((T[:2, 3] - centroid[:2]) @ d[:2]) * d[:2])
+        centred = float(np.clip(1 - lateral / 0.05, 0, 1))
+        out.append(Candidate("push", T, 0.0, preference, 1.0, centred, T_goal=T_goal))
     return out

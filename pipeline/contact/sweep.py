@@ -315,7 +315,9 @@ def _reachable(
         update={"place_lifts_m": lifts, "side_approach_deg": (), "keep": contact.ik_candidates}
     )
     others = np.vstack([scene, group]) if len(group) else scene
-    world = CollisionWorld(robot, safety_config, points=np.vstack([others, shape.head]), table=False)
+    world = CollisionWorld(
+        robot, safety_config, points=np.vstack([others, shape.head]), table=False, held_padding_m=cfg.tool_padding_m
+    )
     result = plan_contacts(
         shape.handle,
         others,

@@ -31,6 +31,18 @@ class RevolutionAxis:
         return turn_about(self.point, self.direction, angle_rad)
 
 
+def ball_centre(points: np.ndarray) -> np.ndarray | None:
+    """The centre of the ball the points (N, 3) lie on, or None when they lie on no sphere (no turn of a ball
+    shows, so only where its centre goes matters)."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(P) < MIN_POINTS:
+        return None
+    centre = np.linalg.lstsq(np.column_stack([2 * P, np.ones(len(P))]), (P**2).sum(axis=1), rcond=None)[0][:3]
+    radius = np.linalg.norm(P - centre, axis=1)
+    off = float(np.median(np.abs(radius - np.median(radius))))
+    return centre if off <= TOLERANCE_REL * float(np.linalg.norm(np.ptp(P, axis=0))) else None
+
+
 def turn_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
     """The angle [deg] of the rotation between two motions (4x4): how far a plan's turns from the grounded one."""
     cos = (np.trace(T_a[:3, :3] @ T_b[:3, :3].T) - 1.0) / 2.0

@@ -25,7 +25,12 @@ class ContactConfig(StrictModel):
     min_tcp_height_m: float = Field(default=0.012, ge=0, description="lowest TCP height above the table")
     max_tilt_deg: float = Field(default=100.0, gt=0, le=180, description="cone: approach axis vs straight down")
     pre_distance_m: float = Field(default=0.10, gt=0, description="pre-contact pose backed off along the approach")
-    push_standoff_m: float = Field(default=0.015, ge=0, description="closed fingers this far behind the contact")
+    push_standoff_m: float = Field(
+        default=0.015, ge=0, description="push: the closed fingers' front this far behind the object to start"
+    )
+    push_tilt_deg: float = Field(
+        default=15.0, ge=0, le=60, description="push: the hand tilted back so only the fingertips touch, low"
+    )
     hinge_contact_fraction: float = Field(
         default=0.8, gt=0, le=1, description="arc push: contact this far out from the hinge, part extent = 1"
     )
@@ -43,6 +48,13 @@ class ContactConfig(StrictModel):
         default=(),
         max_length=10,
         description="grasp: heights above the goal pose the gripper passes setting the object down",
+    )
+    max_drop_m: float = Field(
+        default=0.08,
+        ge=0,
+        le=0.2,
+        description="grasp: how much higher than place_lifts_m[0] the object may be let go where the gripper would "
+        "touch the scene lower (a container's walls, a neighbour): the object drops the rest",
     )
     placed_clearance_m: float = Field(default=0.004, ge=0, description="moved object vs other scene points")
     ik_candidates: int = Field(

@@ -47,6 +47,9 @@ BLACK_MIN_FRACTION = 0.05  # ... or this fraction of dark pixels (a black scale 
 # are split by saturation, which shading leaves alone, when its two modes are this far apart
 SPLIT_SATURATION_RATIO = 0.65
 PART_BORDER_FRACTION = 0.6  # an unsaturated region this much bordered by one region can be its lit face
+SPLIT_BLACK_MAX, SPLIT_LIGHT_MIN = 0.15, 0.55  # a black object's value (lit faces too) and a light one's
+SPLIT_MIN_PX = 30
+LIT_FACE_MIN_VALUE = 0.6  # an unsaturated region darker than this is no lit face of a coloured object
 ACHROMATIC_LABEL = len(CHROMATIC)
 BACKGROUND_LABEL = -1
 
@@ -137,6 +140,21 @@ def _saturation_split(comp: np.ndarray, sat: np.ndarray, val: np.ndarray) -> lis
     return [comp & low, comp & ~low]
 
 
+def _brightness_split(comp: np.ndarray, val: np.ndarray) -> list[np.ndarray]:
+    """An unsaturated region as its black part and the rest, when it holds both black and light pixels: a black
+    ball on a white scale's plate, which touch. The parts are joined again where one is the other's weighing
+    plate (a black scale's base under its light plate, see regions()). A region at the image border (the floor,
+    the robot) is left whole: it is no object."""
+    h, w = comp.shape
+    v, u = np.nonzero(comp)
+    if v.min() == 0 or u.min() == 0 or v.max() == h - 1 or u.max() == w - 1:
+        return [comp]
+    dark, light = comp & (val <= SPLIT_BLACK_MAX), comp & (val >= SPLIT_LIGHT_MIN)
+    if dark.sum() < SPLIT_MIN_PX or light.sum() < SPLIT_MIN_PX:
+        return [comp]
+    return [dark, comp & ~dark]
+
+
 def _components(rgb: np.ndarray) -> tuple[np.ndarray, list[str]]:
     """Connected components of each colour label: an id map (0 = none) and each id's colour name ("achromatic"
     until its region is named white, gray or black)."""
@@ -149,7 +167,10 @@ def _components(rgb: np.ndarray) -> tuple[np.ndarray, list[str]]:
         mask = cv2.morphologyEx((labels == label).astype(np.uint8), cv2.MORPH_OPEN, kernel)
         n, comp = cv2.connectedComponents(mask, connectivity=8)
         for i in range(1, n):
-            pieces = [comp == i] if label == ACHROMATIC_LABEL else _saturation_split(comp == i, sat, val)
+            if label == ACHROMATIC_LABEL:
+                pieces = _brightness_split(comp == i, val)
+            else:
+                pieces = _saturation_split(comp == i, sat, val)
             for piece in pieces:
                 for part in _connected(piece):
                     names.append(CHROMATIC[label] if label < len(CHROMATIC) else "achromatic")
@@ -205,7 +226,8 @@ def _lit_face_of(ids: np.ndarray, names: list[str], i: int, hue: np.ndarray, sat
     if other == 0 or names[other] not in HUES:
         return 0
     own = ids == i
-    tinted = np.median(sat[own]) >= 0.035 and hue_distance(np.median(hue[own]), HUES[names[other]]) <= 30.0
+    lit = np.median(val[own]) >= LIT_FACE_MIN_VALUE  # a face in the light is bright: a gray block in a bowl is not
+    tinted = lit and np.median(sat[own]) >= 0.035 and hue_distance(np.median(hue[own]), HUES[names[other]]) <= 30.0
     if tinted and border >= PART_BORDER_FRACTION:
         return other
     ring = cv2.dilate(own.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)

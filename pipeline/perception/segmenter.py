@@ -43,6 +43,12 @@ def matches(found: list[Detection]) -> str:
     return f"matches {len(found)} object{'s' if len(found) > 1 else ''}: {where}"
 
 
+def apart_from(found: list[Detection], mask: np.ndarray) -> list[Detection]:
+    """The detections that are not mostly the object of `mask` (a reference is not the target it relates to: "put
+    the red can on the cube", the can seen as a box is no cube)."""
+    return [d for d in found if (d.mask & mask).sum() < 0.5 * d.area_px]
+
+
 def box_of(mask: np.ndarray) -> tuple[int, int, int, int]:
     v, u = np.nonzero(mask)
     if u.size == 0:

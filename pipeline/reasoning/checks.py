@@ -93,6 +93,31 @@ def describe_framing(f: Framing) -> str:
     return f"framing changed: corners moved up to {f.max_corner_shift_px:.1f} px, zoom {100 * f.scale_change:.1f} %"
 
 
+SAME_AREA_RATIO = 2.0  # a region this much larger or smaller than the target was is not the target moved
+SAME_COLOUR = 40.0  # mean RGB distance within which a region is of the target's colour (shading, blending)
+
+
+def like_the_target(detections: list[Detection], rgb_init: np.ndarray, mask_init: np.ndarray, rgb: np.ndarray):
+    """Of several regions a phrase matches in the candidate, the one that is the target moved: the only one whose
+    area is within SAME_AREA_RATIO of the target's in the initial image and whose mean colour is within SAME_COLOUR
+    of its; all of them when none or several are (an editor that left the object where it was and drew it again
+    is refused)."""
+    if len(detections) < 2:
+        return detections
+    area0 = max(int(mask_init.sum()), 1)
+    colour0 = rgb_init[mask_init].reshape(-1, 3).astype(np.float64).mean(axis=0)
+
+    def alike(d: Detection) -> bool:
+        colour = rgb[d.mask].reshape(-1, 3).astype(np.float64).mean(axis=0)
+        return (
+            1 / SAME_AREA_RATIO <= d.area_px / area0 <= SAME_AREA_RATIO
+            and np.linalg.norm(colour - colour0) <= SAME_COLOUR
+        )
+
+    found = [d for d in detections if alike(d)]
+    return found if len(found) == 1 else detections
+
+
 def target_count_problems(detections: list[Detection], target: str) -> list[str]:
     if not detections:
         return [f"target '{target}' missing from the candidate"]

@@ -24,7 +24,7 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
-from pipeline.perception.offline_segmenter import parse_phrase, shape_word
+from pipeline.perception.offline_segmenter import COLOUR_WORDS, SHAPE_WORDS, parse_phrase, shape_word
 from pipeline.perception.segmenter import SegmentationError
 
 Action = Literal["place", "rotate", "stand_up", "push", "close", "sweep", "lift", "take_off"]
@@ -212,3 +212,19 @@ def parse_instruction(sentence: str, default_push_m: float = 0.10) -> Instructio
             )
         return Instruction("close", _phrase(g["x"], sentence))
     raise InstructionError(f"{sentence!r} is not in the offline instruction grammar:\n{GRAMMAR}")
+
+
+def with_colour_found(phrase: str, label: str) -> str:
+    """The phrase with the colour its object was found in (a detection's label, e.g. 'cyan cylinder') when it
+    names none: 'the cylinder' -> 'the cyan cylinder', 'lid of the chest' -> 'lid of the yellow chest'. The object
+    is found again in the goal image, at the second look and after execution, where it stands elsewhere or turned
+    and its silhouette may no longer say its kind; with a colour the colour decides and the shape only ranks. A
+    label without a colour word (a model backend's, which echoes the phrase) leaves the phrase as it is."""
+    words = phrase.split()
+    if any(w.lower() in COLOUR_WORDS for w in words):
+        return phrase
+    colour = next((w for w in re.findall(r"[a-z]+", label.lower()) if w in COLOUR_WORDS), None)
+    shapes = [k for k, w in enumerate(words) if w.lower() in SHAPE_WORDS]
+    if colour is None or not shapes:
+        return phrase
+    return " ".join([*words[: shapes[-1]], colour, *words[shapes[-1] :]])

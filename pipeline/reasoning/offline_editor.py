@@ -28,7 +28,7 @@ from scipy.spatial import ConvexHull
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.articulation import HingeNotFound, find_hinge
 from pipeline.perception.depth import OfflineDepthEstimator, RelativeDepth
-from pipeline.perception.segmenter import SegmentationError, Segmenter, matches
+from pipeline.perception.segmenter import SegmentationError, Segmenter, apart_from, matches
 from pipeline.reasoning.checks import grow
 from pipeline.reasoning.instruction import Instruction, InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import ImageEditor
@@ -43,7 +43,9 @@ from pipeline.reasoning.tabletop import (
     footprint,
     object_points,
     principal_axis,
+    rim_centre,
     support_height,
+    top_centre,
     wide_end,
 )
 from pipeline.reasoning.types import EditRequest, EditResult
@@ -62,11 +64,14 @@ def _refuse(message: str) -> ProviderError:
     return ProviderError("refused", f"offline editor: {message}", raw=message)
 
 
-def _single(segmenter: Segmenter, rgb: np.ndarray, phrase: str) -> np.ndarray:
+def _single(segmenter: Segmenter, rgb: np.ndarray, phrase: str, other_than: np.ndarray | None = None) -> np.ndarray:
+    """The one object the phrase names (not the object of `other_than`: a reference is not its target)."""
     try:
         found = segmenter.segment(rgb, phrase)
     except SegmentationError as e:
         raise _refuse(str(e)) from None
+    if other_than is not None:
+        found = apart_from(found, other_than)
     if len(found) != 1:
         raise _refuse(f"'{phrase}' {matches(found)} in the current image (needs exactly one)")
     return found[0].mask
@@ -116,7 +121,7 @@ class OfflineEditor(ImageEditor):
         fx = footprint(px, plane)
         fy, exclude = None, grow(mask_x, 3)
         if instr.reference is not None:
-            mask_y = _single(self.segmenter, rgb, instr.reference)
+            mask_y = _single(self.segmenter, rgb, instr.reference, other_than=mask_x)
             py, _ = object_points(depth_m, K, mask_y)
             fy = footprint(py, plane)
             if instr.relation in ("on", "in"):  # the reference is where it goes, not in its way
@@ -219,8 +224,10 @@ class OfflineEditor(ImageEditor):
                         f"the {instr.target} ({fx.radius_m * 1000:.0f} mm across its middle) does not fit {where} "
                         f"({fy.radius_m * 1000:.0f} mm)"
                     )
-                lift = support_height(fy, plane) - bottom + RELEASE_ABOVE_M
-                shift = fy.centre - fx.centre + lift * plane.n
+                # the middles of the tops (a container's by its rim): the seen points' middle leans to the camera
+                there = rim_centre(fy, plane) if instr.relation == "in" else top_centre(fy, plane)
+                lift = support_height(fy, plane, there) - bottom + RELEASE_ABOVE_M
+                shift = there - top_centre(fx, plane) + lift * plane.n
                 problem = table.problem(fx, shift, hidden_ok=instr.relation == "in")  # walls may hide it
                 if problem is not None:
                     raise GeometryError(f"cannot put the {instr.target} {where}: {problem}")
@@ -239,7 +246,7 @@ class OfflineEditor(ImageEditor):
                 raise GeometryError(why)
             return eye, zero, shift
         if instr.action == "rotate":
-            return axis_rotation(plane.n, math.radians(instr.angle_deg)), fx.centre, zero
+            return axis_rotation(plane.n, math.radians(instr.angle_deg)), top_centre(fx, plane), zero
         if instr.action == "lift":
             shift = instr.distance_m * plane.n
             problem = table.problem(fx, shift)

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 
 from pipeline.perception.offline_segmenter import COLOUR_WORDS, parse_phrase
-from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, matches
+from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, apart_from, matches
 from pipeline.reasoning.instruction import InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import TextVLM
 from pipeline.reasoning.providers import ProviderError
@@ -65,7 +65,7 @@ class OfflineVLM(TextVLM):
         if instr.action != "place":
             return Verdict(True, (f"{instr.target} changed as asked ({instr.action}); no relation to check",))
         try:
-            found = self.segmenter.segment(request.rgb_init, instr.reference)
+            found = apart_from(self.segmenter.segment(request.rgb_init, instr.reference), request.mask_init)
         except SegmentationError as e:
             return Verdict(False, (f"reference '{instr.reference}' not segmentable: {e}",))
         if len(found) != 1:
@@ -122,8 +122,8 @@ def relation_holds(mask: np.ndarray, ref: Detection, relation: str, target: str,
         ok = bottom < rvc
     elif relation == "in_front_of":
         ok = bottom > v1
-    else:  # next to: apart, and no farther than two object sizes
-        overlap = (mask & ref.mask).any()
+    else:  # next to: apart (or in front of it, hiding part of it), and no farther than two object sizes
+        overlap = (mask & ref.mask).any() and bottom <= v1
         gap = max(abs(uc - ruc) - (u1 - u0) / 2 - np.ptp(u) / 2, abs(float(v.mean()) - rvc) - (v1 - v0) / 2, 0.0)
         ok = bool(not overlap and gap < 2.0 * max(u1 - u0, v1 - v0, np.ptp(u)))
     verb = "holds" if ok else "does not hold"

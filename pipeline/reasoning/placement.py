@@ -32,7 +32,8 @@ MAX_OUT_OF_VIEW = 0.3
 
 @dataclass(frozen=True)
 class PlacementConfig:
-    reach_m: tuple[float, float] = (0.2, 0.68)  # centre's distance from the base's vertical axis [m]
+    # centre's distance from the base's vertical axis [m]: nearer, the arm folds onto itself reaching down there
+    reach_m: tuple[float, float] = (0.28, 0.68)
     gap_m: float = 0.02  # free table between the placed object and any other [m]
     beside_gap_m: float = 0.04  # footprint to footprint when placed beside a reference, at first [m]
     farther_m: tuple[float, ...] = (0.0, 0.02, 0.04)  # tried beyond that

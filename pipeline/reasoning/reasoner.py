@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,6 +21,7 @@ from pipeline.config import PipelineConfig
 from pipeline.perception.depth import DepthEstimationError, DepthEstimator
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, matches
 from pipeline.reasoning import checks, group
+from pipeline.reasoning.instruction import with_colour_found
 from pipeline.reasoning.interfaces import ImageEditor, TextVLM
 from pipeline.reasoning.providers import ProviderError
 from pipeline.reasoning.record import Recorder
@@ -117,6 +118,7 @@ class Reasoner:
             for name, mask in (("mask_tool.png", mask_tool), ("mask_reference.png", mask_reference)):
                 if mask is not None:
                     rec.image(name, mask)
+        enh = replace(enh, target=with_colour_found(enh.target, initial[0].label))  # to find it again, moved
         mask_anchor = None
         if enh.anchor:
             anchors = self._segment(rgb, enh.anchor)
@@ -144,7 +146,7 @@ class Reasoner:
             if it.failure_kind in ("auth", "client"):
                 break  # no later iteration can fix a bad key or model name
 
-        reasons = [f"iteration {it.index}: {r}" for it in iterations for r in _reasons(it)]
+        reasons = _by_iterations(iterations)
         if accepted is None:
             if not (allow and usable is not None):
                 rec.json("reasoning.json", {"ok": False, "reasons": reasons, "seconds": seconds})
@@ -262,6 +264,14 @@ class Reasoner:
             problems += group.count_problems(found, group_size, enh.target)
             mask_goal = np.any([d.mask for d in found], axis=0) if found and not problems else None
         else:
+            alike = checks.like_the_target(found, rgb, mask_init, cand)
+            if len(alike) < len(found):
+                areas = ", ".join(str(d.area_px) for d in found)
+                it.checks.append(
+                    f"target '{enh.target}' matched {len(found)} regions (areas {areas} px): took the one "
+                    f"of the target's size ({alike[0].area_px} px, {int(mask_init.sum())} px before)"
+                )
+                found = alike
             problems += checks.target_count_problems(found, enh.target)
             mask_goal = found[0].mask if len(found) == 1 else None
         if mask_goal is not None:
@@ -295,6 +305,24 @@ class Reasoner:
         if it.verdict is not None:
             rec.json("verdict.json", it.verdict, i)
         return _Candidate(cand, mask_goal, result, it)
+
+
+def _by_iterations(iterations: list[Iteration]) -> list[str]:
+    """Each distinct reason once, with the iterations that gave it: 'iterations 1-3: target missing ...'."""
+    seen: dict[str, list[int]] = {}
+    for it in iterations:
+        for r in _reasons(it):
+            seen.setdefault(r, []).append(it.index)
+    out = []
+    for reason, its in seen.items():
+        runs = its[0] == its[-1] - len(its) + 1 and len(its) > 1
+        which = (
+            f"iterations {its[0]}-{its[-1]}"
+            if runs
+            else f"iteration{'s' if len(its) > 1 else ''} " + ", ".join(map(str, its))
+        )
+        out.append(f"{which}: {reason}")
+    return out
 
 
 def _reasons(it: Iteration) -> list[str]:

@@ -103,11 +103,72 @@ def footprint(points: np.ndarray, plane: Plane) -> Footprint:
     return Footprint(centre, r, plane.height(points), points)
 
 
-def support_height(fp: Footprint, plane: Plane) -> float:
-    """Height of the surface an object placed at the centre would rest on (top of a plate, floor of a pan)."""
+def support_height(fp: Footprint, plane: Plane, centre: np.ndarray | None = None) -> float:
+    """Height of the surface an object placed at `centre` (default: the footprint's) would rest on (top of a
+    plate, floor of a pan)."""
     q = plane.project(fp.points)
-    near = np.linalg.norm(q - fp.centre, axis=1) < 0.5 * max(fp.radius_m, 0.01)
+    at = fp.centre if centre is None else centre
+    near = np.linalg.norm(q - at, axis=1) < 0.5 * max(fp.radius_m, 0.01)
     return float(np.median(fp.heights[near])) if near.any() else float(fp.heights.max())
+
+
+TOP_BAND_M = 0.01  # an object's top: its points this close below its highest
+CELL_M = 0.005  # top points are thinned to one per cell of the plane: a near face shows more pixels, not more top
+
+
+def _top(fp: Footprint, plane: Plane) -> np.ndarray:
+    """The object's top points projected on the plane, one per CELL_M cell (in-plane coordinates (N, 2) and the
+    basis), so every part of the top counts by its area, not by how near the camera it is."""
+    top = fp.points[fp.heights >= np.percentile(fp.heights, 98) - TOP_BAND_M]
+    u = plane.in_plane(np.array([1.0, 0.0, 0.0]) if abs(plane.n[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
+    v = np.cross(plane.n, u)
+    q = plane.project(top)
+    uv = np.column_stack([q @ u, q @ v])
+    _, first = np.unique(np.floor(uv / CELL_M).astype(np.int64), axis=0, return_index=True)
+    return uv[first], np.stack([u, v])
+
+
+def _from_uv(uv: np.ndarray, basis: np.ndarray, plane: Plane) -> np.ndarray:
+    return plane.project(uv @ basis)
+
+
+def top_centre(fp: Footprint, plane: Plane) -> np.ndarray:
+    """Centre (on the plane) of the object's top as seen from above: the middle of a block's top face, of a lying
+    bottle's ridge, of a ball's cap. Unlike the footprint's centre (the median of every seen point), it is not
+    pulled toward the side the camera sees."""
+    uv, basis = _top(fp, plane)
+    return _from_uv(uv.mean(axis=0), basis, plane)
+
+
+def rim_centre(fp: Footprint, plane: Plane, seed: int = 0) -> np.ndarray:
+    """Centre (on the plane) of a container's rim: the circle through most of its top points (RANSAC, then least
+    squares on its inliers), which a pan's handle beside it does not pull; the top's centre when no circle of a
+    container's size holds most of them."""
+    uv, basis = _top(fp, plane)
+    best, best_count = None, 0
+    rng = np.random.default_rng(seed)
+    for _ in range(200 if len(uv) >= 3 else 0):
+        fit = _circle(uv[rng.choice(len(uv), 3, replace=False)])
+        if fit is None or not 0.02 <= fit[1] <= 0.2:
+            continue
+        inliers = np.abs(np.linalg.norm(uv - fit[0], axis=1) - fit[1]) < CELL_M
+        if inliers.sum() > best_count:
+            best, best_count = inliers, int(inliers.sum())
+    if best is None or best_count < 0.5 * len(uv):
+        return top_centre(fp, plane)
+    fit = _circle(uv[best])
+    return top_centre(fp, plane) if fit is None else _from_uv(fit[0], basis, plane)
+
+
+def _circle(uv: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Least-squares circle (centre, radius) through points (N >= 3, 2): x^2 + y^2 = 2 c.x + k."""
+    A = np.column_stack([2 * uv, np.ones(len(uv))])
+    solution, _, rank, _ = np.linalg.lstsq(A, (uv**2).sum(axis=1), rcond=None)
+    if rank < 3:
+        return None
+    centre = solution[:2]
+    r2 = solution[2] + centre @ centre
+    return (centre, float(np.sqrt(r2))) if r2 > 0 else None
 
 
 def axis_rotation(axis: np.ndarray, angle_rad: float) -> np.ndarray:

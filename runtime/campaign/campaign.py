@@ -41,7 +41,7 @@ class CampaignSpec(BaseModel):
     trials: int
     rerun_recording: bool = True
     contact: Literal["pipeline", "oracle"] = "pipeline"  # oracle: the simulator's grasp (runtime.sim_truth.oracle)
-    stepped: bool = False  # physics stepped by the executor's clock: outcomes independent of the machine's load
+    stepped: bool = False  # the physics advanced by the executor's clock: the machine's load cannot starve the robot
 
     def cases(self) -> list[Case]:
         try:
@@ -92,7 +92,7 @@ def write_results(outcome: CampaignOutcome, out: Path) -> None:
     seeds = f"seeds {spec.seeds[0]}..{spec.seeds[-1]}" if spec.seeds else "no seeds"
     subtitle = (
         f"{len(outcome.results)} runs: tasks {', '.join(spec.tasks)}; {seeds}; {spec.trials} trial(s); profile "
-        f"{Path(spec.config).name}; contact {spec.contact}; {'stepped' if spec.stepped else 'real-time'} physics; "
+        f"{Path(spec.config).name}; contact {spec.contact}{'; physics stepped' if spec.stepped else ''}; "
         f"on {outcome.pool}"
     )
     (out / "results.html").write_text(html_page(outcome.table, title, outcome.results, subtitle))

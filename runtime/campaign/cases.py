@@ -18,6 +18,8 @@ from pydantic import BaseModel, ConfigDict
 
 GENERATED, GENERATED_ALL = "gen", "gen-all"
 TRIAL_STRIDE = 100_000  # a named task's trials place its scene with seeds seed, seed + STRIDE, ...
+# how the simulator judges a generated action (runtime.campaign.truth.RULES); a place: its centre alone
+GENERATED_TRUTH = {"rotate": "goal_turn", "stand_up": "goal_turn", "push": "goal_upright", "close": "hinge_shut"}
 
 
 class TaskSpec(BaseModel):
@@ -49,7 +51,11 @@ TASKS: dict[str, TaskSpec] = {
         scene="tomato_pan", instruction="put the red ball in the pan", action="place in", target="tomato"
     ),
     "bottle_standup": TaskSpec(
-        scene="bottle_standup", instruction="stand the green bottle up", action="stand up", target="bottle"
+        scene="bottle_standup",
+        instruction="stand the green bottle up",
+        action="stand up",
+        target="bottle",
+        truth="goal_turn",
     ),
     "close_lid": TaskSpec(
         scene="close_lid", instruction="close the blue chest", action="close", target="box", truth="hinge_shut"
@@ -121,7 +127,7 @@ def _generated(seed: int, trial: int, every_action: bool) -> list[Case]:
                 sim_seed=trial,
                 action=action,
                 target=t.target,
-                truth="hinge_shut" if t.action == "close" else "goal_error",
+                truth=GENERATED_TRUTH.get(t.action, "goal_error"),
                 in_grammar=t.in_grammar,
                 variant=f"a{i:02d}" if every_action else "",
             )

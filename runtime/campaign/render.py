@@ -9,11 +9,22 @@ from rich.table import Table
 
 from runtime.campaign.results import CampaignTable, CaseResult, Row
 
-COLUMNS = ("runs", "verified", "success", "done (sim)", "false succ.", "false fail.", "failed in", "median")
+COLUMNS = (
+    "runs",
+    "verified",
+    "success",
+    "done (sim)",
+    "false succ.",
+    "false fail.",
+    "load stops",
+    "failed in",
+    "median",
+)
 LEGEND = (
-    "done (sim): the simulator's truth of where the target ended (never used by the run); false succ.: verified "
-    "but not done; false fail.: done but not verified; failed in: the state where a run that was not verified "
-    "ended; median: the runs' median wall time."
+    "done (sim): the simulator's truth of where the target ended and how it is turned (never used by the run); "
+    "false succ.: verified but not done; false fail.: done but not verified; load stops: runs this machine's load "
+    "stopped (a starved simulated robot or e-stop heartbeat); failed in: the state where a run that was not "
+    "verified ended; median: the runs' median wall time."
 )
 
 
@@ -27,6 +38,7 @@ def _cells(row: Row) -> list[str]:
         f"{row.truly_done}{unknown}",
         str(row.false_successes),
         str(row.false_failures),
+        str(row.load_faults),
         failed,
         "-" if row.median_wall_s is None else f"{row.median_wall_s:.1f} s",
     ]

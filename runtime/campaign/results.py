@@ -19,6 +19,13 @@ from runtime.run.summary import RunSummary
 
 RESULT_FILE = "result.json"
 Status = Literal["DONE", "FAILED", "ESTOPPED", "REFUSED"]
+# how a run ends when this machine, not the run, failed: the simulated robot's state report or the e-stop node's
+# heartbeat starved by other work (the real arm and pendant run on their own computers), a capture past its budget
+LOAD_FAULTS = ("stale joint state", "the state report stalled", "no e-stop node heartbeat", "CAPTURING took too long")
+
+
+def is_load_fault(status: str, reason: str) -> bool:
+    return status != "DONE" and any(fault in reason for fault in LOAD_FAULTS)
 
 
 class CaseResult(BaseModel):
@@ -35,6 +42,9 @@ class CaseResult(BaseModel):
     truly_done: bool | None  # the simulator's: None when it cannot tell (runtime.campaign.truth)
     jitter_p99_s: float | None  # worst streaming jitter p99 over the run's phases
     worker: str = ""  # where it ran (host:pid)
+    load_fault: bool = False  # stopped by this machine's load (LOAD_FAULTS), not by the run
+    ran_again_after: str | None = None  # the reason an earlier attempt stopped for this machine's load
+    load_1min: float | None = None  # the machine's load average while it ran
 
     @classmethod
     def of(cls, case: Case, summary: RunSummary, worker: str = "", run_s: float | None = None) -> CaseResult:
@@ -52,6 +62,7 @@ class CaseResult(BaseModel):
             worker=worker,
             run_s=None if run_s is None else round(run_s, 3),
             recording_s=summary.record_seconds.get("recording"),
+            load_fault=is_load_fault(summary.status, summary.reason),
         )
 
     @classmethod
@@ -86,6 +97,7 @@ class Row(BaseModel):
     false_failures: int  # not verified, but the simulator says done
     truth_unknown: int
     refused_before_start: int
+    load_faults: int  # stopped by this machine's load (after a second attempt where the worker made one)
     failed_in: dict[str, int]  # where the failures started: the state the run ended in
     median_wall_s: float | None  # over the runs that started
 
@@ -104,6 +116,7 @@ class Row(BaseModel):
             false_failures=sum(not r.verified and r.truly_done is True for r in results),
             truth_unknown=sum(r.truly_done is None for r in started),
             refused_before_start=len(results) - len(started),
+            load_faults=sum(r.load_fault for r in results),
             failed_in=dict(sorted(Counter(r.failed_in for r in results if not r.verified and r.failed_in).items())),
             median_wall_s=round(statistics.median(walls), 2) if walls else None,
         )

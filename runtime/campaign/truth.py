@@ -3,8 +3,11 @@
 A rule reads the case and the run's summary (its `sim_truth` section, runtime.sim_truth.listener) and answers
 True (done), False (not done) or None (cannot tell). The simulator's truth is taken at the capture that verifies:
 a run that ended before executing never moved anything, so it is not done; one that ended while executing has no
-truth (None). Tasks with their own truth (the fraction of screws in a dustpan, an object lifted clear) use
-`task_done`, which reads the listener's task truth.
+truth (None). The tolerances are the verification's own. A place is judged by where the object's centre ended (it
+may leave it turned: a ball dropped into a bowl); a turn or a stand-up also by how far its shape is turned from
+the goal's turn, up to the turns its shape does not show; a push by not having tipped the object (a twist along
+the way is no matter). Tasks with their own truth (the fraction of screws in a dustpan, an object lifted clear)
+use `task_done`, which reads the listener's task truth.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from runtime.campaign.cases import Case
 from runtime.run.summary import RunSummary
 
 POSITION_TOL_M = 0.03  # the verification's own tolerances (runtime.verify_position_tol_m / _rotation_tol_deg)
+TURN_TOL_DEG = 15.0
 LID_SHUT_DEG = 15.0
 
 Rule = Callable[[Case, RunSummary], bool | None]
@@ -38,6 +42,24 @@ def goal_error(case: Case, summary: RunSummary) -> bool | None:
     return bool(right_object and truth.target_goal_error_m <= POSITION_TOL_M)
 
 
+def goal_turn(case: Case, summary: RunSummary) -> bool | None:
+    """goal_error, and the target's shape within TURN_TOL_DEG of the goal's turn (a rotation, a stand-up)."""
+    placed = goal_error(case, summary)
+    if not placed:
+        return placed
+    turn = summary.sim_truth.target_turn_error_deg
+    return turn is not None and turn <= TURN_TOL_DEG
+
+
+def goal_upright(case: Case, summary: RunSummary) -> bool | None:
+    """goal_error, and the target tipped no more than TURN_TOL_DEG from the goal's pose (a push)."""
+    placed = goal_error(case, summary)
+    if not placed:
+        return placed
+    tilt = summary.sim_truth.target_tilt_error_deg
+    return tilt is not None and tilt <= TURN_TOL_DEG
+
+
 def hinge_shut(case: Case, summary: RunSummary) -> bool | None:
     """The target's lid hinge ended within LID_SHUT_DEG of shut."""
     truth = summary.sim_truth
@@ -57,7 +79,13 @@ def task_done(case: Case, summary: RunSummary) -> bool | None:
     return bool(truth.task is not None and truth.task.done)
 
 
-RULES: dict[str, Rule] = {"goal_error": goal_error, "hinge_shut": hinge_shut, "task_done": task_done}
+RULES: dict[str, Rule] = {
+    "goal_error": goal_error,
+    "goal_turn": goal_turn,
+    "goal_upright": goal_upright,
+    "hinge_shut": hinge_shut,
+    "task_done": task_done,
+}
 
 
 def judge(case: Case, summary: RunSummary) -> bool | None:

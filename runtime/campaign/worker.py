@@ -3,7 +3,10 @@ on its own simulator, with its own Zenoh robot id and loopback port so that runs
 into a fresh run folder and handed back packed (tar) so that every backend gathers results the same way.
 
 The pipeline's backends are built once per worker process and kept for its later cases, like a long-running
-runtime.
+runtime. A run that this machine's load stopped (a starved simulated robot or e-stop heartbeat: results.LOAD_FAULTS)
+is run once more, the first attempt's record kept inside the second's folder. Stepped, the simulated physics
+advances only as the executor's clock waits (drivers.sim.SteppedClock): a loaded machine cannot starve the
+simulated robot, and the wall times then say nothing of real time.
 """
 
 from __future__ import annotations
@@ -21,7 +24,9 @@ from runtime.campaign.cases import Case
 from runtime.campaign.results import RESULT_FILE, CaseResult
 
 log = logging.getLogger(__name__)
-_stages = None  # this worker process's (contact, stages): backends loaded once
+_stages = None  # this worker process's ((contact, stepped), stages): backends loaded once
+EARLIER_ATTEMPT = "load_fault_attempt"  # the folder, inside a case's, of an attempt this machine's load stopped
+STEPPED_DEADMAN_S = 1.0  # the in-process e-stop heartbeat still beats by the wall clock while the physics is stepped
 
 
 def free_port() -> int:
@@ -35,13 +40,7 @@ def worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-STEPPED_DEADMAN_S = 1.0  # a stepped run's e-stop heartbeat max age: the heartbeat still keeps the wall clock
-
-
 def profile_overrides(case: Case, campaign: str, rerun_recording: bool, stepped: bool = False) -> dict:
-    """The case's scene and seed, its own robot id and port; stepped: the physics advances only when the executor
-    waits for a time (sim.realtime off), and the in-process e-stop heartbeat may be 1 s old, so the machine's load
-    cannot starve the simulated robot."""
     robot_id = f"eval-{campaign}-{case.id}".replace(".", "_")[:120]
     overrides = {
         "sim": {"scene": case.scene, "seed": case.sim_seed},
@@ -77,20 +76,48 @@ def _refusal(case: Case, profile) -> str | None:
     return "; ".join(problems) or None
 
 
+def stepped_clock(devices):
+    """The executor's clock that steps the run's simulated world (drivers.sim.SteppedClock)."""
+    from drivers.sim import SteppedClock
+
+    return SteppedClock(devices.world)
+
+
 def build_stages(contact: str, stepped: bool = False):
     """The run's stages: the pipeline's own, or with the simulator's ground-truth grasp standing in for contact
-    planning (to measure the rest while contact is under work); stepped: the executor's clock is the stepped
-    simulator's (drivers.sim.SteppedClock), so a run's outcome does not depend on the machine's load."""
-    from drivers.sim import SteppedClock
+    planning (to measure the rest while contact is under work); stepped: the physics advanced by the executor's
+    clock."""
     from runtime.run.stages import PipelineStages
     from runtime.sim_truth.listener import SimTruth
 
-    clock = (lambda devices: SteppedClock(devices.world)) if stepped else None
+    clock = stepped_clock if stepped else None
     if contact == "oracle":
         from runtime.sim_truth.oracle import GroundTruthGraspStages
 
         return GroundTruthGraspStages(listeners=[SimTruth()], clock=clock)
     return PipelineStages(listeners=[SimTruth()], clock=clock)
+
+
+def _attempt(case: Case, profile, run_dir: Path, contact: str, stepped: bool) -> CaseResult:
+    """One whole run of the case into run_dir (new)."""
+    global _stages
+    from runtime.devices import open_devices
+    from runtime.run.runner import Runtime
+
+    if _stages is None or _stages[0] != (contact, stepped):
+        _stages = ((contact, stepped), build_stages(contact, stepped))
+    run, t0 = None, time.perf_counter()
+    try:
+        with open_devices(profile) as devices, Runtime(profile, devices, _stages[1], confirm="yes") as rt:
+            run = rt.run(case.instruction, run_dir)
+    except Exception:
+        if run is None:
+            raise
+        # the run ended and its record is written; closing its devices failed (a stage that overran its budget
+        # still holding the camera's GL context): the result stands, and the next case gets fresh backends
+        log.exception("case %s: closing the devices after the run failed", case.id)
+        _stages = None
+    return CaseResult.of(case, run.summary, worker_name(), time.perf_counter() - t0)
 
 
 def run_case(
@@ -102,11 +129,9 @@ def run_case(
     contact: str = "pipeline",
     stepped: bool = False,
 ) -> CaseResult:
-    """Run the case into run_dir (new) and write its result.json there."""
-    global _stages
+    """Run the case into run_dir (new) and write its result.json there; once more when this machine's load
+    stopped it."""
     from runtime.config import load_profile
-    from runtime.devices import open_devices
-    from runtime.run.runner import Runtime
 
     profile = load_profile(config, profile_overrides(case, campaign, rerun_recording, stepped))
     refusal = _refusal(case, profile)
@@ -114,20 +139,16 @@ def run_case(
         run_dir.mkdir(parents=True, exist_ok=True)
         result = CaseResult.refused(case, refusal, worker_name())
     else:
-        if _stages is None or _stages[0] != (contact, stepped):
-            _stages = ((contact, stepped), build_stages(contact, stepped))
-        run, t0 = None, time.perf_counter()
-        try:
-            with open_devices(profile) as devices, Runtime(profile, devices, _stages[1], confirm="yes") as rt:
-                run = rt.run(case.instruction, run_dir)
-        except Exception:
-            if run is None:
-                raise
-            # the run ended and its record is written; closing its devices failed (a stage that overran its budget
-            # still holding the camera's GL context): the result stands, and the next case gets fresh backends
-            log.exception("case %s: closing the devices after the run failed", case.id)
-            _stages = None
-        result = CaseResult.of(case, run.summary, worker_name(), time.perf_counter() - t0)
+        load = os.getloadavg()[0]
+        result = _attempt(case, profile, run_dir, contact, stepped)
+        if result.load_fault:  # the machine's fault, not the run's: once more, the first record kept
+            log.warning("case %s: stopped by this machine's load (%s): run again", case.id, result.reason[:120])
+            earlier = run_dir.rename(run_dir.with_name(f".{run_dir.name}-{EARLIER_ATTEMPT}"))
+            result = _attempt(case, profile, run_dir, contact, stepped).model_copy(
+                update={"ran_again_after": result.reason}
+            )
+            earlier.rename(run_dir / EARLIER_ATTEMPT)
+        result.load_1min = round((load + os.getloadavg()[0]) / 2, 2)
     (run_dir / RESULT_FILE).write_text(result.model_dump_json(indent=2))
     return result
 

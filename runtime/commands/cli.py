@@ -266,8 +266,8 @@ def eval_campaign(
         bool,
         typer.Option(
             "--stepped",
-            help="physics stepped by the executor's clock, not the wall clock: outcomes independent of the "
-            "machine's load (wall times then say nothing of real time)",
+            help="the simulated physics advanced by the executor's clock: a loaded machine cannot starve the "
+            "simulated robot (wall times then say nothing of real time)",
         ),
     ] = False,
 ) -> None:

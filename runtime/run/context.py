@@ -23,7 +23,7 @@ from runtime.config import Profile
 from runtime.devices import Devices
 from runtime.messaging.messages import PlanSummary
 from runtime.run.record import RunRecord
-from runtime.run.summary import Verification
+from runtime.run.summary import LookRecord, Verification
 
 
 class StageError(RuntimeError):
@@ -37,7 +37,8 @@ class RunContext:
     instruction: str
     record: RunRecord
     cancel: threading.Event
-    frame0: RGBDFrame | None = None  # the capture before the run
+    frame0: RGBDFrame | None = None  # the capture the plan is made from (the first, or a second look's)
+    basis: str = "capture"  # frame0's name in the run folder
     goal: GoalState | None = None  # reasoning
     motion: ObjectMotion | None = None  # grounding (ok)
     clouds: SceneClouds | None = None  # planning: the target's and the scene's points (base frame)
@@ -60,6 +61,10 @@ class Stages(Protocol):
     def ground(self, ctx: RunContext) -> None: ...
 
     def plan(self, ctx: RunContext) -> PlanSummary: ...
+
+    def recheck(self, ctx: RunContext) -> LookRecord:
+        """The second look right before moving; may re-base ctx on the look (see runtime.run.second_look)."""
+        ...
 
     def execute(self, ctx: RunContext) -> None: ...
 

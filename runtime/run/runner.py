@@ -1,8 +1,10 @@
 """The run loop: one instruction through the states, with the supervisor, recorder and confirm gate around it.
 
-The loop only sequences stages. Each stage runs on a worker thread while the loop waits for it or for `cancel`
-(set by the supervisor on e-stop, abort, fault, deadman or an overrun budget), so a stuck stage can delay
-nothing: the run ends when its time is up and the arm has already been stopped by the supervisor.
+The loop only sequences stages, and goes back in one place: the second look before moving (RECHECKING) may send
+it back to REASONING or PLANNING, after which the new plan is confirmed again. Each stage runs on a worker thread
+while the loop waits for it or for `cancel` (set by the supervisor on e-stop, abort, fault, deadman or an overrun
+budget), so a stuck stage can delay nothing: the run ends when its time is up and the arm has already been
+stopped by the supervisor.
 """
 
 from __future__ import annotations
@@ -177,6 +179,32 @@ class Runtime:
             raise self._fail("the previous run stopped the arm mid-way: press Reset after checking the cell")
         for state, name in PIPELINE:
             self._stage(state, name, ctx)
+        replans = 0
+        while True:
+            self._confirm(ctx)
+            back = self._second_look(ctx, replans)
+            if back is None:
+                break
+            replans += 1
+            for state, name in PIPELINE[[s for s, _ in PIPELINE].index(back) :]:  # from there on again
+                self._stage(state, name, ctx, entered=state == back)
+        if not self.supervisor.deadman_ok():
+            age = self.supervisor.estop_heartbeat_age()
+            raise self._fail(
+                f"no fresh e-stop heartbeat (last {age:.2f} s ago, limit {self.profile.runtime.deadman_timeout_s} s):"
+                " start `goalvla estop` and keep it running"
+            )
+        self._stage(State.EXECUTING, "execute", ctx)
+        self.machine.advance(State.VERIFYING)
+        verdict = self._call(self.stages.verify, ctx, "verify")
+        ctx.record.summary.verification = verdict
+        if verdict.ok:
+            self.machine.advance(State.DONE, verdict.reason)
+        else:
+            raise self._fail(f"verify: {verdict.reason}")
+
+    def _confirm(self, ctx: RunContext) -> None:
+        """The operator approves the plan planning made, by its id, or the run ends."""
         plan = ctx.plan
         if plan is None:
             raise self._fail("planning produced no plan summary")
@@ -192,20 +220,27 @@ class Runtime:
         ctx.record.summary.confirmation = ConfirmationRecord(source=decision.source, approved=decision.approve)
         if not decision.approve:
             raise self._fail(f"plan {plan.plan_id} declined by {decision.source}")
-        if not self.supervisor.deadman_ok():
-            age = self.supervisor.estop_heartbeat_age()
+
+    def _second_look(self, ctx: RunContext, replans: int) -> State | None:
+        """RECHECKING: look again right before moving. None when the confirmed plan still holds, else the state
+        the run goes back to (bounded by runtime.second_look.max_replans, beyond which it refuses)."""
+        cfg = self.profile.runtime.second_look
+        if not cfg.enabled:
+            self.machine.advance(State.RECHECKING, "second look off (runtime.second_look.enabled)")
+            return None
+        self.machine.advance(State.RECHECKING)
+        look = self._call(self.stages.recheck, ctx, "recheck")
+        ctx.record.summary.second_look.append(look)
+        if look.decision == "still":
+            return None
+        if replans >= cfg.max_replans:
             raise self._fail(
-                f"no fresh e-stop heartbeat (last {age:.2f} s ago, limit {self.profile.runtime.deadman_timeout_s} s):"
-                " start `goalvla estop` and keep it running"
+                f"recheck: {look.reason}; the scene changed after {replans} replan(s) already "
+                f"(runtime.second_look.max_replans {cfg.max_replans}): not moving in a scene that does not hold still"
             )
-        self._stage(State.EXECUTING, "execute", ctx)
-        self.machine.advance(State.VERIFYING)
-        verdict = self._call(self.stages.verify, ctx, "verify")
-        ctx.record.summary.verification = verdict
-        if verdict.ok:
-            self.machine.advance(State.DONE, verdict.reason)
-        else:
-            raise self._fail(f"verify: {verdict.reason}")
+        back = State.PLANNING if look.decision == "replan" else State.REASONING
+        self.machine.back(back, look.reason)
+        return back
 
     def _ask_confirmation(self, plan: PlanSummary) -> None:
         if self.confirm_mode == "yes":
@@ -223,8 +258,9 @@ class Runtime:
         self.supervisor.fail(reason)
         return Cancelled()
 
-    def _stage(self, state: State, name: str, ctx: RunContext) -> None:
-        self.machine.advance(state)
+    def _stage(self, state: State, name: str, ctx: RunContext, entered: bool = False) -> None:
+        if not entered:
+            self.machine.advance(state)
         if state == State.EXECUTING:
             ctx.executing = True  # from here on, a run that ends badly must stop the motion
         result = self._call(getattr(self.stages, name), ctx, name)

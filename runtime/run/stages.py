@@ -38,7 +38,15 @@ from runtime.messaging.messages import PlanSummary
 from runtime.run.contact import contact_plans, instruction_action
 from runtime.run.context import RunContext, StageError
 from runtime.run.overlay import draw_tcp_poses
-from runtime.run.summary import MotionRecord, PhaseRecord, PlanningRecord, ReasoningRecord, Verification
+from runtime.run.second_look import look_again
+from runtime.run.summary import (
+    LookRecord,
+    MotionRecord,
+    PhaseRecord,
+    PlanningRecord,
+    ReasoningRecord,
+    Verification,
+)
 from runtime.run.sweep import plan_sweep_stage
 from runtime.run.verification import verify_run
 from safety.robot_model import RobotModel
@@ -47,13 +55,14 @@ log = logging.getLogger(__name__)
 
 MAX_CONTACTS = 3  # ranked contact decisions tried before planning gives up
 GRASPING_MODES = ("grasp", "sweep")  # a close in these grasps something (an object, a tool): closing on nothing stops
-PLAN_ATTEMPTS = 2  # planning attempts per contact (OMPL is randomised)
+PLAN_ATTEMPTS = 2  # planning attempts per contact when a path search failed (OMPL is randomised)
 SETTLE_S = 0.3  # after the last phase, before the capture that verifies: the object comes to rest
 ABORT_REST_S = 2.0  # an operator abort: how long the executor may take to come to rest on its path
 
 
 class CaptureListener(Protocol):
-    """Told of every capture a run takes ("capture" before, "after" for verification), right after it."""
+    """Told of every capture a run takes ("capture" before, "look1", ... right before moving, "after" for
+    verification), right after it."""
 
     def on_capture(self, name: str, ctx: RunContext) -> None: ...
 
@@ -98,7 +107,8 @@ class PipelineStages:
             except RuntimeError as e:  # missing API keys, unusable model settings: the message names them
                 raise StageError(str(e)) from e
         try:
-            goal = self._reasoner.run(ctx.frame0, ctx.instruction, record_dir=str(ctx.record.dir / "reasoning"))
+            folder = "reasoning" if ctx.basis == "capture" else f"reasoning_{ctx.basis}"  # again after a change
+            goal = self._reasoner.run(ctx.frame0, ctx.instruction, record_dir=str(ctx.record.dir / folder))
         except ReasoningError as e:
             raise StageError(str(e)) from e
         ctx.goal = goal
@@ -198,18 +208,37 @@ class PipelineStages:
             target=clouds.target,
         )
         refusals = []
-        contacts = self.contacts(ctx, clouds, robot, q_start)[:MAX_CONTACTS]
-        for contact in [c for c in contacts for _ in range(PLAN_ATTEMPTS)]:  # OMPL may find a path on a retry
-            try:
-                manipulation = phases(chain, contact)
+        manipulation = None
+        for contact in self.contacts(ctx, clouds, robot, q_start)[:MAX_CONTACTS]:
+            for attempt in range(1, PLAN_ATTEMPTS + 1):
+                try:
+                    manipulation = phases(chain, contact)
+                    break
+                except ManipulationRefused as e:
+                    refusal = f"{contact.source}: {e}" + (f" ({attempt} attempts)" if attempt > 1 else "")
+                    if attempt > 1:
+                        refusals.pop()
+                    refusals.append(refusal)
+                    if not e.searched:  # the same on every attempt: only a path search may find one next time
+                        break
+            if manipulation is not None:
                 break
-            except ManipulationRefused as e:
-                refusals.append(f"{contact.source}: {e}")
         else:
             ctx.record.summary.planning = PlanningRecord(refusals=refusals)
             raise StageError("no contact could be planned:\n  " + "\n  ".join(refusals))
         ctx.record.summary.planning = PlanningRecord(contact_used=contact.source, refusals=refusals)
         return contact, manipulation
+
+    # -- the second look ----------------------------------------------------------------------------------
+    def recheck(self, ctx: RunContext) -> LookRecord:
+        name = f"look{len(ctx.record.summary.second_look) + 1}"
+        look = self._capture(ctx, name)
+        return look_again(ctx, look, name, self._segmenter_backend(ctx), self._features_backend(ctx))
+
+    def _segmenter_backend(self, ctx: RunContext) -> Segmenter:
+        if self._segmenter is None:
+            self._segmenter = build_segmenter(ctx.profile.pipeline)
+        return self._segmenter
 
     # -- execution ----------------------------------------------------------------------------------------
     def execute(self, ctx: RunContext) -> None:
@@ -258,9 +287,7 @@ class PipelineStages:
             clock = self.clock(ctx.devices)
             clock.sleep_until(clock.now() + SETTLE_S)
         after = ctx.frame1 = self._capture(ctx, "after")
-        if self._segmenter is None:
-            self._segmenter = build_segmenter(ctx.profile.pipeline)
-        return verify_run(ctx, after, self._segmenter, self._features_backend(ctx))
+        return verify_run(ctx, after, self._segmenter_backend(ctx), self._features_backend(ctx))
 
 
 def _mask_picture(rgb: np.ndarray, mask_init: np.ndarray, mask_goal: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ from pipeline.grounding.compare import Comparison
 from pipeline.grounding.types import ObjectMotion
 from runtime.messaging.messages import PlanSummary
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: the second look before moving (second_look), a state RECHECKING among the transitions
 
 
 class Section(BaseModel):
@@ -83,6 +83,32 @@ class ContactRecord(Section):
 class PlanningRecord(Section):
     contact_used: str | None = None  # the contact whose manipulation planned and passed the gate
     refusals: list[str] = Field(default_factory=list)  # why the contacts tried before it could not be planned
+
+
+class ChangeRecord(Section):
+    """A region of the scene whose depth changed between the capture the plan was made from and a second look."""
+
+    what: Literal["target", "scene"]  # on the target (where it was or is now), or anywhere else
+    area_cm2: float
+    max_change_mm: float
+    at_base_m: list[float]  # its centre, base frame
+
+
+class LookRecord(Section):
+    """One second look right before moving, and what the run did about it."""
+
+    capture: str  # the look's capture in the run folder (look1.png, look1.npz)
+    compared_with: str  # the capture the plan was made from
+    changes: list[ChangeRecord]
+    target_shift_m: float | None = None  # the target's measured motion since, when its depth changed
+    target_turn_deg: float | None = None  # (a turn its symmetry hides is not counted)
+    drift: MotionRecord | None = None  # that measurement (grounding's registration; absent for a ball)
+    # still: execute the confirmed plan; replan: the target alone moved, its motion re-based on this look and
+    # planned again; reason: something else moved (or the target cannot be measured), everything from the goal
+    # image on is made again from this look
+    decision: Literal["still", "replan", "reason"]
+    reason: str
+    seconds: float
 
 
 class ConfirmationRecord(Section):
@@ -174,6 +200,12 @@ class SimTruthRecord(Section):
     hinge_deg: dict[str, float]  # each hinge joint's angle after the run
     target: str | None = None  # a whole object that was moved: the one that moved most
     target_goal_error_m: float | None = None  # how far its centre ended from where the goal motion puts it
+    # how far it is turned from the goal motion's turn, up to the turns its shape does not show (a ball's, a
+    # cylinder's about its axis, a cube's quarter turns)
+    target_turn_error_deg: float | None = None
+    target_tilt_error_deg: float | None = (
+        None  # ... and tipped from the goal's pose (a turn about the vertical is none)
+    )
     task: TaskTruthRecord | None = None  # the truth of a sweep, a lift or a take-off
 
 
@@ -185,7 +217,7 @@ class TransitionRecord(Section):
 
 
 class RunSummary(Section):
-    schema_version: Literal[1] = SCHEMA_VERSION
+    schema_version: Literal[2] = SCHEMA_VERSION
     run_id: str
     status: Literal["RUNNING", "DONE", "FAILED", "ESTOPPED"] = "RUNNING"
     reason: str = ""
@@ -201,6 +233,7 @@ class RunSummary(Section):
     planning: PlanningRecord | None = None
     plan: PlanSummary | None = None
     confirmation: ConfirmationRecord | None = None
+    second_look: list[LookRecord] = Field(default_factory=list)  # in order; the last one let the run move
     execution: list[PhaseRecord] = Field(default_factory=list)
     achieved_motion: AchievedRecord | None = None
     verification: Verification | None = None

@@ -1,8 +1,11 @@
 """The run's state machine: the only place that decides which state follows which.
 
-Stages run in order; FAILED (with a reason) and ESTOPPED are reachable from every state. ESTOPPED is latched:
-nothing but an explicit `reset()` leaves it, so a stage thread that was mid-way when the stop came cannot
-advance the run afterwards. Every transition is handed to the listeners (publisher, recorder, progress display).
+Stages run in order; FAILED (with a reason) and ESTOPPED are reachable from every state. The one way back is the
+second look before moving (RECHECKING): when the scene changed since the planning capture, the run goes back to
+REASONING (something other than the target moved) or PLANNING (the target alone moved, its motion re-based).
+ESTOPPED is latched: nothing but an explicit `reset()` leaves it, so a stage thread that was mid-way when the stop
+came cannot advance the run afterwards. Every transition is handed to the listeners (publisher, recorder, progress
+display).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ class State(StrEnum):
     GROUNDING = "GROUNDING"
     PLANNING = "PLANNING"
     AWAITING_CONFIRM = "AWAITING_CONFIRM"
+    RECHECKING = "RECHECKING"
     EXECUTING = "EXECUTING"
     VERIFYING = "VERIFYING"
     DONE = "DONE"
@@ -37,12 +41,14 @@ SEQUENCE = (
     State.GROUNDING,
     State.PLANNING,
     State.AWAITING_CONFIRM,
+    State.RECHECKING,
     State.EXECUTING,
     State.VERIFYING,
     State.DONE,
 )
 TERMINAL = frozenset({State.DONE, State.FAILED, State.ESTOPPED})
 MOVING = frozenset({State.EXECUTING})
+BACK = {State.RECHECKING: frozenset({State.REASONING, State.PLANNING})}  # the only transitions back
 
 
 class TransitionError(RuntimeError):
@@ -126,6 +132,14 @@ class StateMachine:
                 current = State.IDLE
             if current in TERMINAL or SEQUENCE.index(state) != SEQUENCE.index(current) + 1:
                 raise TransitionError(current, state, self._reason)
+            return self._go(state, reason)
+
+    def back(self, state: State, reason: str) -> Transition:
+        """Back to an earlier pipeline state (BACK says which may be reached from where); TransitionError
+        otherwise."""
+        with self._lock:
+            if state not in BACK.get(self._state, ()):
+                raise TransitionError(self._state, state, self._reason)
             return self._go(state, reason)
 
     def fail(self, reason: str) -> bool:

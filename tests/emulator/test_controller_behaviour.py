@@ -65,6 +65,19 @@ def test_joint_limit_and_speed_errors_hold_until_clean_error(emulator, world):
         assert wait_for(lambda: holds(world, q0 + 0.002))
 
 
+def test_a_cleaned_error_the_twin_raised_does_not_come_back_on_the_next_tick(emulator, world):
+    """The controller's cycle re-reads the twin's fault: cleaning the error must acknowledge it there too."""
+    with bare_sdk(emulator) as api:
+        over = world_q(world)
+        over[3] = world.spec.upper[3] + 0.05
+        api.set_servo_angle_j(over.tolist())
+        assert wait_for(lambda: api.get_err_warn_code()[1][0] == 23)
+        api.clean_error()
+        emulator.model.tick()  # a cycle between clean_error and set_state(0)
+        assert emulator.model.error == 0 and api.get_err_warn_code()[1] == [0, 0]
+        assert emulator.model.set_state(0) and emulator.model.state == 2  # ready: nothing raised it again
+
+
 def test_reduced_mode_lowers_the_speed_limit(emulator, world):
     with bare_sdk(emulator) as api:
         api.set_reduced_max_joint_speed(0.5)  # rad/s (is_radian)

@@ -93,7 +93,8 @@ def test_wrong_relation_is_rejected_each_iteration_and_the_run_fails(sim_view, c
     editor = ScriptedEditor(wrong, wrong, wrong)
     with pytest.raises(ReasoningError) as e:
         reasoner(editor).run(frame, "put the red block left of the green cylinder", record_dir=tmp_path)
-    assert len(e.value.reasons) == 3 and all("'left of' does not hold" in r for r in e.value.reasons)
+    (reason,) = e.value.reasons  # the same reason each time: said once, with the iterations that gave it
+    assert reason.startswith("iterations 1-3: 'left of' does not hold")
     assert not json.loads((tmp_path / "reasoning.json").read_text())["ok"]
 
 
@@ -173,3 +174,42 @@ def test_build_reasoner_fails_at_start_up_without_keys(monkeypatch):
 def test_offline_depth_is_wired_to_the_offline_editor():
     r = build_reasoner(PipelineConfig())
     assert isinstance(r.depth, OfflineDepthEstimator) and r.editor.depth_registry is r.depth
+
+
+def test_a_reason_given_by_several_iterations_is_said_once_with_them():
+    from pipeline.reasoning.reasoner import _by_iterations
+    from pipeline.reasoning.types import Iteration, Verdict
+
+    missing = Verdict(False, ("target 'cylinder' missing from the candidate",))
+    iterations = [
+        Iteration(1, "p", verdict=missing),
+        Iteration(2, "p", failure="timeout after 30 s"),
+        Iteration(3, "p", verdict=missing),
+        Iteration(4, "p", verdict=missing),
+    ]
+    assert _by_iterations(iterations) == [
+        "iterations 1, 3, 4: target 'cylinder' missing from the candidate",
+        "iteration 2: timeout after 30 s",
+    ]
+    assert _by_iterations(iterations[2:]) == ["iterations 3-4: target 'cylinder' missing from the candidate"]
+
+
+def test_of_several_matches_in_the_goal_image_the_one_like_the_target_is_taken():
+    from pipeline.perception.segmenter import Detection, box_of
+    from pipeline.reasoning.checks import like_the_target
+
+    rgb = np.zeros((60, 80, 3), np.uint8)
+    target0 = np.zeros((60, 80), bool)
+    target0[10:20, 10:20] = True  # 100 px, green
+    rgb[target0] = (60, 200, 60)
+    moved, bottle, ball = (np.zeros((60, 80), bool) for _ in range(3))
+    moved[30:40, 50:60] = True  # the target moved: its size and colour
+    bottle[5:45, 30:45] = True  # a green bottle, six times larger
+    ball[45:55, 5:15] = True  # a ball of its size, another green
+    rgb[moved], rgb[bottle], rgb[ball] = (60, 200, 60), (30, 100, 40), (20, 120, 20)
+    det = lambda m: Detection(m, 1.0, box_of(m), "green")  # noqa: E731
+    (taken,) = like_the_target([det(bottle), det(moved)], rgb, target0, rgb)
+    assert taken.mask is moved
+    assert len(like_the_target([det(bottle), det(ball)], rgb, target0, rgb)) == 2  # the ball is not its colour
+    twice = [det(moved), det(target0)]  # drawn again, left where it was too: refused as two
+    assert len(like_the_target(twice, rgb, target0, rgb)) == 2

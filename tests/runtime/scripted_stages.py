@@ -18,7 +18,7 @@ import numpy as np
 from motion.interpolate import minimum_jerk_path
 from runtime.messaging.messages import PlanSummary
 from runtime.run.context import RunContext, StageError
-from runtime.run.summary import Verification
+from runtime.run.summary import LookRecord, Verification
 
 MOVE_RAD = np.array([0.35, 0.25, 0.0, -0.25, 0.0, 0.2, 0.35])
 
@@ -77,6 +77,9 @@ class ScriptedStages:
             samples=len(path),
             gate_ok=True,
         )
+
+    def recheck(self, ctx: RunContext) -> LookRecord:
+        return LookRecord(capture="look", compared_with=ctx.basis, changes=[], decision="still", reason="", seconds=0.0)
 
     def execute(self, ctx: RunContext) -> None:
         arm, period = ctx.devices.arm, 1.0 / ctx.profile.robot.control_rate_hz

@@ -91,6 +91,61 @@ def test_the_sweep_lift_and_take_off_tasks_are_judged_by_their_own_truth():
         assert judge(c, summary("FAILED", "planning")) is False
 
 
+def test_a_turn_and_a_stand_up_are_judged_by_the_shape_a_push_by_not_tipping():
+    def turned(turn: float, tilt: float, error: float = 0.01) -> SimTruthRecord:
+        return moved("bottle", error).model_copy(update={"target_turn_error_deg": turn, "target_tilt_error_deg": tilt})
+
+    stand_up = case("bottle_standup")
+    assert stand_up.truth == "goal_turn"
+    assert judge(stand_up, summary(truth=turned(5.0, 5.0))) is True
+    assert judge(stand_up, summary(truth=turned(80.0, 80.0))) is False  # where it should be, still lying down
+    assert judge(stand_up, summary(truth=turned(5.0, 5.0, error=0.05))) is False
+    push = case(action="push", target="bottle", truth="goal_upright")
+    assert judge(push, summary(truth=turned(40.0, 3.0))) is True  # twisted along the way: no matter
+    assert judge(push, summary(truth=turned(40.0, 30.0))) is False  # tipped over
+    place = case(target="bottle")
+    assert judge(place, summary(truth=turned(80.0, 80.0))) is True  # a place judges the centre alone
+    by_action = {c.action.split()[0]: c.truth for c in expand([GENERATED_ALL], range(20, 32), 1)}
+    assert by_action["rotate"] == by_action["stand"] == "goal_turn" and by_action["push"] == "goal_upright"
+    assert by_action["close"] == "hinge_shut" and by_action["place"] == "goal_error"
+
+
+def test_a_run_this_machines_load_stopped_is_run_again_with_the_first_record_kept(
+    tmp_path, monkeypatch, sim_config_path
+):
+    from runtime.campaign import worker
+
+    starved = summary("FAILED", "executing")
+    starved.reason = "stale joint state: none newer than 0.310 s"
+    reasons = iter([starved, summary(truth=moved("red_block", 0.01))])
+    attempts = []
+
+    def attempt(c, profile, run_dir, contact, stepped):
+        run_dir.mkdir(parents=True)
+        (run_dir / "summary.json").write_text("{}")
+        attempts.append(stepped)
+        return CaseResult.of(c, next(reasons))
+
+    monkeypatch.setattr(worker, "_attempt", attempt)
+    monkeypatch.setattr(worker, "_refusal", lambda c, profile: None)
+    run_dir = tmp_path / "tabletop-s0000-t00"
+    result = worker.run_case(case(), sim_config_path, "ci", run_dir, stepped=True)
+    assert attempts == [True, True] and result.verified and not result.load_fault
+    assert result.ran_again_after.startswith("stale joint state") and result.load_1min is not None
+    assert (run_dir / worker.EARLIER_ATTEMPT / "summary.json").is_file()
+    assert CaseResult.read(run_dir) == result and [p.name for p in tmp_path.iterdir()] == [run_dir.name]
+    table = CampaignTable.of([CaseResult.of(case(), starved), result])
+    assert table.total.load_faults == 1
+
+
+def test_a_stepped_campaign_runs_without_real_time_physics():
+    from runtime.campaign.worker import profile_overrides
+
+    stepped = profile_overrides(case(), "ci", True, stepped=True)
+    assert stepped["sim"]["realtime"] is False and stepped["runtime"]["deadman_timeout_s"] == 1.0
+    assert "realtime" not in profile_overrides(case(), "ci", True)["sim"]
+
+
 def test_the_table_counts_false_successes_false_failures_and_where_failures_started():
     results = [
         CaseResult.of(case(seed=0), summary(truth=moved("red_block", 0.01), wall=8.0)),
@@ -175,19 +230,12 @@ def test_worker_processes_and_a_local_ray_instance_write_the_same_table(tmp_path
     assert again.ran_now == 0 and again.table.outcome() == processes.table.outcome()
 
 
-def test_a_stepped_campaign_runs_its_cases_on_the_executors_clock(sim_config_path):
-    """--stepped: the sim's physics is off the wall clock, the executor steps it, and the heartbeat may be 1 s old."""
+def test_a_stepped_campaigns_stages_step_the_runs_simulated_world():
     from types import SimpleNamespace
 
     from drivers.sim import SteppedClock
-    from runtime.campaign.worker import build_stages, profile_overrides
-    from runtime.config import load_profile
+    from runtime.campaign.worker import build_stages
 
-    c = case("take_off", seed=3)
-    stepped = load_profile(sim_config_path, profile_overrides(c, "c", True, stepped=True))
-    plain = load_profile(sim_config_path, profile_overrides(c, "c", True))
-    assert not stepped.sim.realtime and stepped.runtime.deadman_timeout_s == 1.0
-    assert plain.sim.realtime and plain.runtime.deadman_timeout_s < 1.0
     world = object()
     assert build_stages("pipeline").clock is None
     for contact in ("pipeline", "oracle"):

@@ -20,7 +20,7 @@ from runtime.devices import open_devices
 from runtime.messaging.bus import Bus
 from runtime.messaging.messages import EStop, PlanSummary
 from runtime.run.runner import Runtime
-from runtime.run.summary import RunSummary, Verification
+from runtime.run.summary import LookRecord, RunSummary, Verification
 from runtime.supervision.states import State
 
 pytestmark = pytest.mark.slow
@@ -49,6 +49,9 @@ class StreamUntilStopped:
             samples=2,
             gate_ok=True,
         )
+
+    def recheck(self, ctx) -> LookRecord:
+        return LookRecord(capture="look", compared_with=ctx.basis, changes=[], decision="still", reason="", seconds=0.0)
 
     def execute(self, ctx) -> None:
         arm = ctx.devices.arm

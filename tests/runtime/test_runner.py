@@ -83,6 +83,7 @@ def test_happy_path_writes_the_record(session, tmp_path):
         "grounding",
         "planning",
         "awaiting_confirm",
+        "rechecking",
         "executing",
         "verifying",
     }

@@ -53,6 +53,26 @@ def test_estop_from_every_state_is_latched(upto):
     sm.advance(State.CAPTURING)
 
 
+def test_only_the_second_look_goes_back_and_only_to_reasoning_or_planning():
+    sm = StateMachine(StateBudgets())
+    for state in SEQUENCE[1 : SEQUENCE.index(State.RECHECKING)]:
+        sm.advance(state)
+        with pytest.raises(TransitionError):  # no way back before the second look
+            sm.back(State.REASONING, "changed")
+    sm.advance(State.RECHECKING)
+    with pytest.raises(TransitionError):
+        sm.back(State.GROUNDING, "changed")
+    sm.back(State.PLANNING, "the target moved")
+    assert sm.state == State.PLANNING and sm.reason == "the target moved"
+    sm.advance(State.AWAITING_CONFIRM)
+    sm.advance(State.RECHECKING)
+    sm.back(State.REASONING, "a neighbour moved")
+    sm.advance(State.GROUNDING)
+    assert sm.estop("button") and sm.state == State.ESTOPPED
+    with pytest.raises(TransitionError):
+        sm.back(State.REASONING, "late")
+
+
 def test_fail_keeps_the_first_reason_and_a_new_run_may_follow():
     sm = StateMachine(StateBudgets())
     sm.advance(State.CAPTURING)

@@ -14,7 +14,14 @@ from runtime.supervision.estop import EStopNode
 from runtime.supervision.states import State, StateMachine
 from runtime.supervision.supervisor import Supervisor
 
-TO_EXECUTING = (State.CAPTURING, State.REASONING, State.GROUNDING, State.PLANNING, State.AWAITING_CONFIRM)
+TO_EXECUTING = (
+    State.CAPTURING,
+    State.REASONING,
+    State.GROUNDING,
+    State.PLANNING,
+    State.AWAITING_CONFIRM,
+    State.RECHECKING,
+)
 
 
 @pytest.fixture

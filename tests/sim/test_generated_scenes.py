@@ -121,3 +121,23 @@ def test_objects_are_at_rest_before_the_first_capture(scene, sim_profile_with):
     after = _centres(world)
     drift = {n: float(np.linalg.norm(after[n] - before[n])) for n in before}
     assert max(drift.values()) < 0.002, drift
+
+
+@pytest.mark.parametrize("scene", ["gen:20000", "gen:20022", "gen:20036", "close_lid"])
+def test_an_open_lid_stays_where_it_was_left(scene, sim_profile_with):
+    """An open lid leaning past upright crept 0.4 deg/s on its hinge's soft friction (10 deg while a plan was
+    made, which the second look saw as the scene changing); one nearly shut still falls shut."""
+    import math
+
+    from drivers.sim import SimWorld
+
+    profile = sim_profile_with({"sim": {"scene": scene, "seed": 0}})
+    world = SimWorld(profile.sim, profile.camera)
+    hinges = [world.model.joint(f"{o.name}_hinge").qposadr[0] for o in world.scene.objects if o.kind == "lidded_box"]
+    assert hinges
+    before = world.data.qpos[hinges].copy()
+    world.step(15.0)
+    assert np.degrees(np.abs(world.data.qpos[hinges] - before)).max() < 0.5
+    world.data.qpos[hinges] = math.radians(15.0)
+    world.step(3.0)
+    assert np.degrees(world.data.qpos[hinges]).max() < 1.0

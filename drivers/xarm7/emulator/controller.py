@@ -231,8 +231,12 @@ class ControllerModel:
         return True
 
     def clean_error(self) -> None:
+        """Clear the error and the twin's fault behind it (else the next tick raised it again before set_state(0)
+        could clear it); the arm stays stopped until motion_enable, set_mode and set_state(0)."""
         with self.lock:
             self.error = ESTOP_BUTTON_ERROR if self.estop_pressed else 0
+            self.arm.clear_fault()
+            self.arm.stop()
 
     def clean_warn(self) -> None:
         with self.lock:
