@@ -72,6 +72,7 @@ def plan_contacts(
     collision_world=None,
     viewpoint: np.ndarray | None = None,
     object_name: str = "object",
+    release_world=None,
 ) -> ContactResult:
     """Ranked contact plans for moving the object by T_base_motion (x_goal = T x_init, base frame).
 
@@ -81,7 +82,9 @@ def plan_contacts(
     the candidate's opening (the exact geometry the gate will judge the approach in), those of the goal pose free of
     self-collision, workspace and keep-out (at the goal the object is set down from above with a clearance, so
     the scene there is the geometric filter's). viewpoint: camera position (for normals). object_name: names a
-    grasped object's held box (ContactPlan.held) in the gate's reports.
+    grasped object's held box (ContactPlan.held) in the gate's reports. release_world: the world a grasp's release
+    is checked in with the object in the hand (default collision_world; a tool's put-back leaves out the tool's
+    other parts, which collision_world keeps as obstacles for the approach).
     """
     cfg = config or ContactConfig()
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
@@ -118,7 +121,7 @@ def plan_contacts(
     total = len(candidates) + sum(rejected.values())
     motions = _motions(pts, T_base_motion, mode)
     scene_tree = cKDTree(scene) if len(scene) else None
-    placing = _Placing(pts, object_name, robot.tcp_frame)
+    placing = _Placing(pts, object_name, robot.tcp_frame, release_world)
     goal_check = _GoalCheck(cfg, robot, scene, scene_tree, [transform_points(M, pts) for M in motions], placing)
     geometric, drops = [], {}
     for c in candidates:
@@ -323,11 +326,13 @@ class _Unreachable(Exception):
 
 @dataclass(frozen=True)
 class _Placing:
-    """What a grasp plan's held box is made of: the object's points, its name and the TCP link."""
+    """What a grasp plan's held box is made of: the object's points, its name and the TCP link; and the world its
+    release is checked in (None: the approach's)."""
 
     points: np.ndarray
     name: str
     tcp_link: str
+    release_world: object = None
 
 
 def _reachable_plans(
@@ -379,9 +384,9 @@ class _Acceptance:
 
     def place(self, q: np.ndarray) -> bool:
         if self._carrying is None:
-            w, p = self.world, self.placing
+            p = self.placing
             held = held_box(p.points, self.c.T_contact, tcp_link=p.tcp_link, name=p.name)
-            self._carrying = w.holding(held)
+            self._carrying = (p.release_world or self.world).holding(held)
         return not any(self._carrying.in_collision(q, w) for w in (self.c.object_width_m, self.width))
 
     def of(self, what: str):

@@ -315,9 +315,9 @@ def _reachable(
         update={"place_lifts_m": lifts, "side_approach_deg": (), "keep": contact.ik_candidates}
     )
     others = np.vstack([scene, group]) if len(group) else scene
-    world = CollisionWorld(
-        robot, safety_config, points=np.vstack([others, shape.head]), table=False, held_padding_m=cfg.tool_padding_m
-    )
+    world = CollisionWorld(robot, safety_config, points=np.vstack([others, shape.head]), table=False)
+    # the tool is put back with its own margin, its head no obstacle: the head is part of what the hand holds
+    release = CollisionWorld(robot, safety_config, points=others, table=False, held_padding_m=cfg.tool_padding_m)
     result = plan_contacts(
         shape.handle,
         others,
@@ -329,6 +329,7 @@ def _reachable(
         collision_world=world,
         viewpoint=viewpoint,
         object_name=tool_name,
+        release_world=release,
     )
     if not result.ok:
         raise SweepRefused(f"the {tool_name}'s handle cannot be grasped: {result.reason}")
