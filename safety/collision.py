@@ -48,7 +48,11 @@ class CollisionWorld:
         gripper_width_m: float | None = None,
         table: bool = True,
         backend: BackendName = "coal",
+        held_padding_m: float | None = None,
     ) -> None:
+        """held_padding_m: how much the held object is grown (default the robot's padding_m). A tool meant to
+        touch the table or to skim past objects (a brush's bristles) is checked with its own, smaller margin;
+        every robot shape keeps padding_m."""
         self.robot = robot or RobotModel()
         self.config = config or SafetyConfig()
         self.backend_name: BackendName = backend
@@ -56,6 +60,9 @@ class CollisionWorld:
         self._points = None if points is None else np.asarray(points, dtype=np.float64).reshape(-1, 3)
         self._held = held
         self._table = table
+        if held_padding_m is not None and not 0.0 <= held_padding_m <= self.config.padding_m:
+            raise ValueError(f"held_padding_m {held_padding_m} outside [0, padding_m = {self.config.padding_m}]")
+        self._held_padding = held_padding_m
         self._qf = self.robot.full_q(self.robot.home_q)
         self._finger_idx = self.robot.finger_q_indices
         self._half_gap = 0.0
@@ -95,6 +102,21 @@ class CollisionWorld:
             gripper_width_m=self.gripper_width_m,
             table=self._table,
             backend=backend or self.backend_name,
+            held_padding_m=self._held_padding,
+        )
+
+    def holding(self, held: Primitive) -> CollisionWorld:
+        """The same world (scene, table, held margin) with `held` in the hand."""
+        return CollisionWorld(
+            self.robot,
+            self.config,
+            obstacles=self._obstacles,
+            points=self._points,
+            held=held,
+            gripper_width_m=self.gripper_width_m,
+            table=self._table,
+            backend=self.backend_name,
+            held_padding_m=self._held_padding,
         )
 
     # ---- contents ----------------------------------------------------------------------------------------------
@@ -140,7 +162,9 @@ class CollisionWorld:
         self._rebuild()
 
     def _rebuild(self) -> None:
-        self.scene: Scene = build_scene(self.robot, self.config, self._obstacles, self._points, self._held, self._table)
+        self.scene: Scene = build_scene(
+            self.robot, self.config, self._obstacles, self._points, self._held, self._table, self._held_padding
+        )
         if self.backend_name == "coal":
             from safety.backend_coal import CoalBackend
 

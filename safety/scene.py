@@ -54,15 +54,17 @@ def build_scene(
     points: np.ndarray | None = None,
     held: Primitive | None = None,
     table: bool = True,
+    held_padding_m: float | None = None,
 ) -> Scene:
-    """Robot primitives (padded by config.padding_m) and the held object against everything else; the base,
-    bolted to the table, is not tested against the table or the workspace floor; the held object is not tested
-    against the gripper that holds it."""
+    """Robot primitives (padded by config.padding_m) and the held object (padded by held_padding_m, default the
+    same) against everything else; the base, bolted to the table, is not tested against the table or the
+    workspace floor; the held object is not tested against the gripper that holds it."""
     pad = config.padding_m
     robot_prims = [p.padded(pad) for p in robot_primitives(robot.spec)]
     objects = [SceneObject(p.name, "robot", p, p.link) for p in robot_prims]
     if held is not None:
-        objects.append(SceneObject(held.name, "held", held.padded(pad), held.link))
+        held_pad = pad if held_padding_m is None else held_padding_m
+        objects.append(SceneObject(held.name, "held", held.padded(held_pad), held.link))
     world: list[SceneObject] = []
     if table:
         world.append(SceneObject("table", "table", table_primitive()))

@@ -22,13 +22,14 @@ import yaml
 
 from drivers.config import SimCameraConfig, SimConfig
 from drivers.sim.footprint import footprint_gap
-from drivers.sim.kinds import KINDS, NOUN_KINDS, half_extent, room_on
+from drivers.sim.kinds import GENERATED_KINDS, KINDS, NOUN_KINDS, half_extent, room_on
 from drivers.sim.scene import (
     COLORS,
     Randomisation,
     Scene,
     SceneError,
     SceneObject,
+    expand_groups,
     load_scene,
     place,
     placed_footprint,
@@ -170,7 +171,7 @@ def _required(rng: np.random.Generator, action: str) -> list[SceneObject]:
                 return [target, container]
         return [_draw(rng, "sphere", "target", radius_m=0.025), container]
     if action == "place_beside":
-        return [_draw_with(rng, graspable, "graspable", "target"), _draw(rng, str(rng.choice(list(KINDS))), "ref")]
+        return [_draw_with(rng, graspable, "graspable", "target"), _draw(rng, str(rng.choice(GENERATED_KINDS)), "ref")]
     if action == "rotate":
         return [_draw_with(rng, ("box", "box", "bottle", "cylinder"), "rotatable", "target")]
     if action == "push":
@@ -244,7 +245,7 @@ def _generate(seed: int) -> tuple[Scene, str, np.random.Generator]:
         objects = list(required)
         large = sum(KINDS[o.kind].large for o in objects)
         while len(objects) < n:
-            kind = str(rng.choice(list(KINDS)))
+            kind = str(rng.choice(GENERATED_KINDS))
             if KINDS[kind].large and large >= 2:
                 continue
             large += KINDS[kind].large
@@ -417,7 +418,7 @@ def scene_for(sim: SimConfig) -> Scene:
 
 def check_scene(sim: SimConfig) -> Scene:
     """The profile's scene, loaded and placed as SimWorld will (no simulator): SceneError names what is wrong."""
-    scene = scene_for(sim)
+    scene = expand_groups(scene_for(sim), sim.seed)
     place(scene, sim.seed)
     return scene
 

@@ -14,8 +14,9 @@ import numpy as np
 
 Rng = np.random.Generator
 # roles: graspable (picked up and placed), pushable, rotatable (a turn about the vertical is visible), support
-# (things go on it), container (things go in it), lying (stood up), closable (its lid shuts)
-ROLES = ("graspable", "pushable", "rotatable", "support", "container", "lying", "closable")
+# (things go on it), container (things go in it), lying (stood up), closable (its lid shuts), sweepable (a small
+# part swept with others), tool (held to move other things)
+ROLES = ("graspable", "pushable", "rotatable", "support", "container", "lying", "closable", "sweepable", "tool")
 DENSITY_KG_M3 = 500.0  # wood or filled plastic
 
 
@@ -29,6 +30,8 @@ class KindSpec:
     sample: Callable[[Rng], dict]
     roles: Callable[[dict], frozenset[str]]
     large: bool = False  # takes much of the table (at most a few per scene)
+    generated: bool = True  # drawn by the scene generator (the task kinds are placed by their scenes only, so
+    # adding them left every generated case as it was)
 
 
 def _u(rng: Rng, lo: float, hi: float, digits: int = 3) -> float:
@@ -97,6 +100,32 @@ def _lidded_box(rng: Rng) -> dict:
     }
 
 
+def _cup(rng: Rng) -> dict:
+    r, h = _u(rng, 0.026, 0.034), _u(rng, 0.07, 0.1)
+    return {"radius_m": r, "height_m": h, "mass_kg": _mass(0.3 * np.pi * r * r * h)}
+
+
+def _screw(rng: Rng) -> dict:
+    return {"radius_m": _u(rng, 0.005, 0.007, 4), "height_m": _u(rng, 0.04, 0.05), "mass_kg": 0.012}
+
+
+def _brush(rng: Rng) -> dict:
+    return {"size_m": (_u(rng, 0.045, 0.055), _u(rng, 0.10, 0.13), 0.03), "mass_kg": 0.18}
+
+
+def _dustpan(rng: Rng) -> dict:
+    return {"size_m": (_u(rng, 0.13, 0.16), _u(rng, 0.22, 0.28), _u(rng, 0.02, 0.03))}
+
+
+def _dish_rack(rng: Rng) -> dict:
+    return {"size_m": (_u(rng, 0.12, 0.18), _u(rng, 0.16, 0.18), _u(rng, 0.05, 0.07))}
+
+
+def _stand(rng: Rng) -> dict:
+    side = _u(rng, 0.1, 0.14)
+    return {"size_m": (side, side, _u(rng, 0.07, 0.11))}
+
+
 KINDS: dict[str, KindSpec] = {
     s.kind: s
     for s in (
@@ -109,8 +138,15 @@ KINDS: dict[str, KindSpec] = {
         KindSpec("bowl", ("bowl",), _bowl, lambda f: frozenset({"container"}), large=True),
         KindSpec("platform", ("scale", "platform"), _platform, lambda f: frozenset({"support"}), large=True),
         KindSpec("lidded_box", ("box", "chest"), _lidded_box, lambda f: frozenset({"closable"}), large=True),
+        KindSpec("cup", ("cup", "mug"), _cup, lambda f: frozenset({"graspable"}), generated=False),
+        KindSpec("screw", ("screw", "bolt"), _screw, lambda f: frozenset({"sweepable"}), generated=False),
+        KindSpec("brush", ("brush",), _brush, lambda f: frozenset({"tool"}), large=True, generated=False),
+        KindSpec("dustpan", ("dustpan",), _dustpan, lambda f: frozenset({"container"}), large=True, generated=False),
+        KindSpec("dish_rack", ("rack",), _dish_rack, lambda f: frozenset({"support"}), large=True, generated=False),
+        KindSpec("stand", ("stand", "shelf"), _stand, lambda f: frozenset({"support"}), large=True, generated=False),
     )
 }
+GENERATED_KINDS = tuple(k for k, spec in KINDS.items() if spec.generated)
 # what a noun names: "box" is any box, a lidded one too; "block" and "cube" only a plain one
 NOUN_KINDS: dict[str, frozenset[str]] = {}
 for _spec in KINDS.values():
@@ -131,6 +167,8 @@ def room_on(fields: dict, kind: str) -> float:
     """Radius of the free area on a support or in a container [m]: a placed object must fit within it."""
     if kind in ("plate", "pan", "bowl"):
         return float(fields["radius_m"]) - 0.008
+    if kind == "dustpan":  # its floor, less the walls
+        return 0.5 * min(fields["size_m"][:2]) - 0.02
     if kind == "platform":
         return 0.45 * min(fields["size_m"][:2])  # its weighing plate
     return 0.5 * min(fields["size_m"][:2])

@@ -24,7 +24,7 @@ from drivers.description import RobotSpec, load_robot_spec
 from drivers.description.mjcf import add_robot
 from drivers.sim.generate import scene_for
 from drivers.sim.gl import mujoco
-from drivers.sim.scene import Scene, add_object, place
+from drivers.sim.scene import Scene, add_object, expand_groups, place
 
 TABLE_SIZE_M = (1.4, 1.6, 0.04)
 TABLE_CENTER_XY_M = (0.3, 0.0)
@@ -164,8 +164,9 @@ def build_mjcf(
     )
     if board is not None:
         add_board(flange if board.mount == "flange" else world, asset, board)
+    by_name = {o.name: o for o in scene.objects}
     for o in scene.objects:
-        add_object(world, asset, o, poses[o.name])
+        add_object(world, asset, o, poses[o.name], by_name.get(o.support))
     root.append(actuators)
     ET.indent(root)
     return ET.tostring(root, encoding="unicode")
@@ -180,7 +181,7 @@ class SimWorld:
         self.config = sim
         self.camera_config = camera
         self.spec = spec or load_robot_spec()
-        self.scene = scene_for(sim)
+        self.scene = expand_groups(scene_for(sim), sim.seed)
         self.poses = place(self.scene, sim.seed)
         self.xml = build_mjcf(self.spec, self.scene, self.poses, camera, sim.physics_dt_s, sim.board)
         self.model = mujoco.MjModel.from_xml_string(self.xml)

@@ -58,8 +58,6 @@ class ManipulationChain:
         self.timer = TrajectoryTimer(
             self.limits, self.dt, robot.joint_names, robot.tcp_positions, safety.max_tcp_speed_m_s
         )
-        push_speed = min(safety.max_tcp_speed_m_s, motion.push_tcp_speed_m_s)
-        self.push_timer = TrajectoryTimer(self.limits, self.dt, robot.joint_names, robot.tcp_positions, push_speed)
         self.q0 = np.asarray(q_start, dtype=np.float64)
         home = robot_config.home_q_rad
         self.home = np.asarray(home if home is not None else robot.spec.home_q, dtype=np.float64)
@@ -112,16 +110,20 @@ class ManipulationChain:
         q_start: np.ndarray,
         what: str,
         free_move: bool = False,
-        pushing: bool = False,
+        tcp_speed_m_s: float | None = None,
     ) -> ApprovedTrajectory:
         """Timed and approved by the gate. A free move (no contact in it) may blend through its waypoints, its
         corners cut where that stays clear and kept only where the gate accepts the bent path; everything else
-        rests at each waypoint, on the checked lines. A push is timed at the profile's push speed."""
+        rests at each waypoint, on the checked lines. tcp_speed_m_s: a slower TCP than the safety limit (a push,
+        a tool pushing small parts)."""
         blend = free_move and self.motion.blend_free_moves
         if blend:  # only paths with corners (a direct move has none, and cutting builds an inflated world)
             steps = [self.planner(world).smooth(s) if isinstance(s, np.ndarray) and len(s) > 2 else s for s in steps]
+        timer = self.timer
+        if tcp_speed_m_s is not None:
+            speed = min(tcp_speed_m_s, self.safety.max_tcp_speed_m_s)
+            timer = TrajectoryTimer(self.limits, self.dt, self.robot.joint_names, self.robot.tcp_positions, speed)
         try:
-            timer = self.push_timer if pushing else self.timer
             trajectory = timer.time(steps, blend=blend, check=gate_check(world, q_start) if blend else None)
             return approve(trajectory, world, q_current=q_start)
         except TimingError as e:

@@ -14,6 +14,10 @@ cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
           motion.push_tcp_speed_m_s, back off along the tilted hand, else straight up) -> home
   hinge:  as push, the push following the via poses along the hinged part's arc (a Cartesian line between each
           two), ending just off the turned part, whence straight up is away from it
+  lift:   approach -> grasp (straight in, close, up until the held object clears the padded table) -> lift (the
+          object held: straight to the goal pose above), and the arm holds it there (a pick-up: nothing is put
+          back unless asked)
+  sweep:  a tool grasped, strokes, the tool put back: sweep.py
 The free paths end at the joints contact planning solved (pre-contact, above the place), checked in each phase's
 world; the lines between them follow the TCP.
 """
@@ -66,21 +70,26 @@ class ManipulationPlan:
         return np.max(peaks, axis=0).tolist()
 
 
-def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
-    g = chain.robot.spec.gripper
-    if len(contact.T_place) != 2 or len(contact.q_place) != 2:
-        raise ManipulationRefused(
-            f"grasp: the contact carries {len(contact.T_place)} poses to set the object down from (need the "
-            "release and the pose above it, place_heights)"
-        )
-    (T_place, T_above), (_, q_above) = contact.T_place, contact.q_place
-    before = chain.world(g.max_width_m, obstacle=chain.target_points)  # the object is an obstacle until touched
+def _approach(chain: ManipulationChain, contact: Contact) -> tuple[ApprovedTrajectory, np.ndarray]:
+    """Free path to the pre-grasp pose, the object an obstacle until touched, opening the fingers; and q_pre."""
+    before = chain.world(chain.robot.spec.gripper.max_width_m, obstacle=chain.target_points)
     before_planner = chain.planner(before)
     q_pre = chain.checked(before_planner, contact.q_pre, contact.T_pre, "pre-grasp pose")
     to_pre = chain.free(before_planner, chain.q0, q_pre, "path to the pre-grasp pose")
     approach = chain.approved(
         [to_pre, GripperAction("open", OPEN_S, contact.open_width_m)], before, chain.q0, "approach", free_move=True
     )
+    return approach, q_pre
+
+
+def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
+    if len(contact.T_place) != 2 or len(contact.q_place) != 2:
+        raise ManipulationRefused(
+            f"grasp: the contact carries {len(contact.T_place)} poses to set the object down from (need the "
+            "release and the pose above it, place_heights)"
+        )
+    (T_place, T_above), (_, q_above) = contact.T_place, contact.q_place
+    approach, q_pre = _approach(chain, contact)
 
     touching = chain.world(contact.open_width_m)  # the approach ended opening the fingers: no wider down to it
     planner = chain.planner(touching)
@@ -108,6 +117,25 @@ def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     return ManipulationPlan(phases, ("approach", "grasp", "carry", "retreat", "home"), contact, waypoints)
 
 
+def plan_lift(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
+    """Grasp the object and lift it to its goal pose, and hold it there. It rises first as a grasp does (it rests
+    on the table, which the held object grown by the padding would touch), then held, to the goal."""
+    approach, q_pre = _approach(chain, contact)
+    touching = chain.world(contact.open_width_m)
+    planner = chain.planner(touching)
+    down = chain.line(planner, q_pre, contact.T_contact, "approach to the grasp")
+    clear = min(place_heights(chain.safety.padding_m)[0], float(contact.T_goal[2, 3] - contact.T_contact[2, 3]))
+    rise = chain.line(planner, down[-1], lifted(contact.T_contact, clear), "rise off the table")
+    grasp = chain.approved([down, GripperAction("close", CLOSE_S, contact.width_m), rise], touching, q_pre, "grasp")
+    waypoints = {"pre-grasp": contact.T_pre, "grasp": contact.T_contact, "lifted": contact.T_goal}
+    if np.linalg.norm(contact.T_goal[:3, 3] - chain.robot.tcp_pose(rise[-1])[:3, 3]) < 1e-3:
+        return ManipulationPlan((approach, grasp), ("approach", "grasp"), contact, waypoints)
+    holding = chain.world(contact.width_m, held=contact.held)
+    up = chain.line(chain.planner(holding), rise[-1], contact.T_goal, "lift to the goal")
+    lift = chain.approved([up], holding, rise[-1], "lift")
+    return ManipulationPlan((approach, grasp, lift), ("approach", "grasp", "lift"), contact, waypoints)
+
+
 def plan_push(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     """A straight push, or a hinge push along the via poses of its arc."""
     g = chain.robot.spec.gripper
@@ -131,7 +159,8 @@ def plan_push(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     # object: back off along the tilted hand first
     back = _retreat(chain, planner, path[-1][-1], contact.T_goal, after, "retreat after the push", up, not contact.via)
     # a straight push moves a free object, which a fast one throws on past the fingers; a hinged part cannot go on
-    pushing = chain.approved([*path, back], touching, q_pre, "push", pushing=not contact.via)
+    speed = None if contact.via else chain.motion.push_tcp_speed_m_s
+    pushing = chain.approved([*path, back], touching, q_pre, "push", tcp_speed_m_s=speed)
     home = _home(chain, after, back[-1])
     arc = {f"arc {k}": T for k, T in enumerate(contact.via, start=1)}
     waypoints = {"pre-push": contact.T_pre, "contact": contact.T_contact, **arc, "push end": contact.T_goal}

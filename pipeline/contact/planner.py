@@ -34,7 +34,13 @@ from scipy.spatial import cKDTree
 from pipeline.contact.gripper import GripperBoxes
 from pipeline.contact.held import held_box
 from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
-from pipeline.contact.sampling import Candidate, estimate_normals, grasp_candidates, push_candidates
+from pipeline.contact.sampling import (
+    Candidate,
+    estimate_normals,
+    grasp_candidates,
+    push_candidates,
+    support_height,
+)
 from pipeline.contact.symmetry import ball_centre, revolution_axis, turn_deg
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from safety.collision import CollisionWorld
@@ -68,6 +74,7 @@ def plan_contacts(
     collision_world=None,
     viewpoint: np.ndarray | None = None,
     object_name: str = "object",
+    release_world=None,
 ) -> ContactResult:
     """Ranked contact plans for moving the object by T_base_motion (x_goal = T x_init, base frame).
 
@@ -77,7 +84,9 @@ def plan_contacts(
     the candidate's opening (the exact geometry the gate will judge the approach in), those of the goal pose free of
     self-collision, workspace and keep-out (at the goal the object is set down from above with a clearance, so
     the scene there is the geometric filter's). viewpoint: camera position (for normals). object_name: names a
-    grasped object's held box (ContactPlan.held) in the gate's reports.
+    grasped object's held box (ContactPlan.held) in the gate's reports. release_world: the world a grasp's release
+    is checked in with the object in the hand (default collision_world; a tool's put-back leaves out the tool's
+    other parts, which collision_world keeps as obstacles for the approach).
     """
     cfg = config or ContactConfig()
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
@@ -90,7 +99,9 @@ def plan_contacts(
     rejected: Counter[str] = Counter()
     gripper = GripperBoxes(robot, cfg.collision_padding_m)
     if mode == "grasp":
-        candidates, why = grasp_candidates(pts, normals, cfg, robot.spec.gripper.max_width_m)
+        candidates, why = grasp_candidates(
+            pts, normals, cfg, robot.spec.gripper.max_width_m, support_height(pts, scene)
+        )
         rejected.update(why)
     elif mode == "hinge":
         try:
@@ -112,7 +123,7 @@ def plan_contacts(
     total = len(candidates) + sum(rejected.values())
     motions = _motions(pts, T_base_motion, mode)
     scene_tree = cKDTree(scene) if len(scene) else None
-    placing = _Placing(pts, object_name, robot.tcp_frame)
+    placing = _Placing(pts, object_name, robot.tcp_frame, release_world)
     goal_check = _GoalCheck(cfg, robot, scene, scene_tree, [transform_points(M, pts) for M in motions], placing)
     geometric, drops = [], {}
     for c in candidates:
@@ -338,11 +349,13 @@ class _Unreachable(Exception):
 
 @dataclass(frozen=True)
 class _Placing:
-    """What a grasp plan's held box is made of: the object's points, its name and the TCP link."""
+    """What a grasp plan's held box is made of: the object's points, its name and the TCP link; and the world its
+    release is checked in (None: the approach's)."""
 
     points: np.ndarray
     name: str
     tcp_link: str
+    release_world: object = None
 
 
 def _reachable_plans(
@@ -394,9 +407,9 @@ class _Acceptance:
 
     def place(self, q: np.ndarray) -> bool:
         if self._carrying is None:
-            w, p = self.world, self.placing
+            p = self.placing
             held = held_box(p.points, self.c.T_contact, tcp_link=p.tcp_link, name=p.name)
-            self._carrying = CollisionWorld(w.robot, w.config, obstacles=list(w.obstacles), points=w.points, held=held)
+            self._carrying = (p.release_world or self.world).holding(held)
         return not any(self._carrying.in_collision(q, w) for w in (self.c.object_width_m, self.width))
 
     def released(self, q: np.ndarray):

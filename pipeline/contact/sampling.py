@@ -14,11 +14,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from pipeline.contact.types import ContactConfig, ContactMode
 
 PAD_HALF_WIDTH_M = 0.016  # half the finger pad's width (along the TCP x axis)
 PAD_LENGTH_M = 0.06  # how far the pads reach from the TCP back toward the wrist
+RAISED_M = 0.02  # scene points this high just below an object and around it are a raised support it stands on ...
+SUPPORT_REACH_M = 0.04  # ... within this of its outline (the run's scene loses what lies within 1.5 cm of it) ...
+SUPPORT_POINTS = 5  # ... when there are this many (the gate's cloud has a point per cm)
+SUPPORT_CELL_M = 0.01  # the gate sees a support as points, in cells this large
 TABLE_CLEAR_M = 0.002  # a push's padded fingertips this far above the table
 
 
@@ -72,9 +77,25 @@ def _pinch(points: np.ndarray, normals: np.ndarray, T: np.ndarray) -> tuple[floa
     return float(hi - lo), float(np.mean(quality)), float(0.5 * (hi + lo))
 
 
+def support_height(points: np.ndarray, scene: np.ndarray) -> float:
+    """Height [m] of a raised support the object stands on (a stand's board), from the scene points seen just
+    around and under its outline and just below its lowest point; 0 for the table (its points are not in the
+    scene)."""
+    if not len(scene):
+        return 0.0
+    bottom = float(np.percentile(points[:, 2], 2))
+    low = scene[(scene[:, 2] > RAISED_M) & (scene[:, 2] < bottom + 0.005)]
+    if len(low) < SUPPORT_POINTS:
+        return 0.0
+    near, _ = cKDTree(points[:, :2]).query(low[:, :2], distance_upper_bound=SUPPORT_REACH_M)
+    under = low[np.isfinite(near)]
+    return float(np.percentile(under[:, 2], 90)) if len(under) >= SUPPORT_POINTS else 0.0
+
+
 def grasp_candidates(
-    points: np.ndarray, normals: np.ndarray, cfg: ContactConfig, max_width_m: float
+    points: np.ndarray, normals: np.ndarray, cfg: ContactConfig, max_width_m: float, support_z: float = 0.0
 ) -> tuple[list[Candidate], dict[str, int]]:
+    """support_z: the height of a raised support the object stands on (support_height), 0 on the table."""
     rejected = {"too wide for the gripper": 0, "nothing between the fingers": 0}
     centroid = points.mean(axis=0)
     size = float(np.linalg.norm(np.percentile(points, 95, axis=0) - np.percentile(points, 5, axis=0)))
@@ -89,7 +110,10 @@ def grasp_candidates(
     axes = np.linalg.svd(xy - xy.mean(axis=0), full_matrices=False)[2]
     spread = np.percentile(np.abs(xy @ axes.T), 90, axis=0)
     offsets = (0.0, -0.5 * spread[0], 0.5 * spread[0]) if spread[0] > 1.6 * spread[1] else (0.0,)
-    height = max(top - min(cfg.grasp_depth_m, 0.75 * top), cfg.min_tcp_height_m)
+    # the object's own height, and the fingers' clearance, from what it stands on: the table, or a raised support
+    # (support_z: a stand, seen as points in cells of up to SUPPORT_CELL_M by the gate)
+    floor = cfg.min_tcp_height_m + (support_z + SUPPORT_CELL_M if support_z > 0.0 else 0.0)
+    height = max(top - min(cfg.grasp_depth_m, 0.75 * (top - support_z)), floor)
     for offset in offsets:
         origin = np.array([*(centre_xy + offset * axes[0]), height])
         for yaw in np.radians(np.arange(0.0, 180.0, cfg.yaw_step_deg)):
@@ -97,7 +121,7 @@ def grasp_candidates(
     # from the side: horizontal approach from the robot's side, closing axis horizontal
     toward = np.array([centroid[0], centroid[1], 0.0])
     toward /= max(np.linalg.norm(toward), 1e-9)
-    side_height = max(0.5 * top, cfg.min_tcp_height_m)
+    side_height = max(0.5 * (top + support_z), floor)
     for angle in np.radians(cfg.side_approach_deg):
         c, s = np.cos(angle), np.sin(angle)
         z = np.array([c * toward[0] - s * toward[1], s * toward[0] + c * toward[1], 0.0])

@@ -14,7 +14,9 @@ shade, a gray one in the light). A lid of another colour is a part of its box, n
 alone keeps the regions of its kinds (when there is none, those fitting it well, the best within a margin; a
 moved object seen from another side can read as a neighbouring kind), so "the scale" is the scale, not every
 box-like thing.
-A part word ("the lid of the blue box") names the lid of the named object: a region of another colour attached
+A plural shape word ("the yellow screws") names every instance, and with a colour word also the irregular
+regions of that colour a few small parts make when they touch (a pile). A part word ("the lid of the blue box")
+names the lid of the named object: a region of another colour attached
 to it from above (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the
 box's region (faces are the pieces between the edges inside it).
 Limits, by design of a no-model backend: brown is not separable from the wooden table, regions touching the
@@ -32,7 +34,7 @@ import numpy as np
 
 from pipeline.perception.colour_regions import ACHROMATIC, CHROMATIC, Region, hsv, regions
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, box_of, check_rgb
-from pipeline.perception.shape_cues import classify
+from pipeline.perception.shape_cues import SPECK_AREA_FRAC, classify, cues
 
 COLOUR_WORDS: dict[str, str] = {c: c for c in (*CHROMATIC, *ACHROMATIC)} | {"grey": "gray", "violet": "purple"}
 # what a shape word names: kinds of the simulator's objects
@@ -54,14 +56,26 @@ SHAPE_WORDS: dict[str, frozenset[str]] = {
     "bowl": frozenset({"bowl"}),
     "scale": frozenset({"platform"}),
     "platform": frozenset({"platform"}),
+    "cup": frozenset({"cup", "cylinder"}),  # a cup seen from the side is a can to the eye
+    "mug": frozenset({"cup", "cylinder"}),
+    "screw": frozenset({"screw"}),
+    "bolt": frozenset({"screw"}),
+    "brush": frozenset({"brush"}),
+    "broom": frozenset({"brush"}),
+    "dustpan": frozenset({"dustpan"}),
+    "rack": frozenset({"dish_rack"}),
+    "stand": frozenset({"stand"}),
+    "shelf": frozenset({"stand"}),
 }
 PART_WORDS = ("lid",)
 SHADE_WORDS = ("dark", "light")
-FILLER_WORDS = {"the", "a", "an", "small", "big", "large", "little", "object", "lidded", "of", "s"}
+FILLER_WORDS = {"the", "a", "an", "small", "big", "large", "little", "object", "lidded", "of", "s", "all"}
+FILLER_BEFORE_SHAPE = {"dish"}  # "dish rack": a word that is a shape word alone but describes the one after it
 LIGHT_NEUTRALS = ("white", "gray")  # a colour word of one stands for the other when nothing is of that one
 SHUT_LOOKS_LIKE = frozenset({"box"})  # a lidded box with its lid shut is a box to the eye: when no lidded one is,
 CHEST_AREA_RATIO = 0.6  # ... the largest box (and any nearly as large): a chest is several blocks in size
 ATTACHED_PX = 4  # a part's region lies within this many pixels of its object's region
+ENCLOSED_TOP = 0.8  # a region with its object's just above this share of its top edge lies inside the object
 CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 BLEND_SATURATION = 0.8  # a lid's pixel along its box this much less saturated than the lid is a blend of the two
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
@@ -69,6 +83,10 @@ FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region c
 RANK_MARGIN = 0.15  # with no region of the shape's kinds: those fitting it within this of the best
 SHAPE_ONLY_FIT = 0.5  # ... and with no colour word, fitting it at least this well
 SHADE_RATIO = 0.8  # a light (dark) region's saturation (value) against the deepest (brightest) of its colour
+PILE_AREA_FRAC = 5e-3  # a pile of small parts (screws) is at most this share of the image ...
+PILE_FILL, PILE_ELLIPSE = 0.75, 0.7  # ... and fills less of its rectangle, or of its ellipse, than any solid does
+FRAGMENT_AREA_FRAC = 2 * SPECK_AREA_FRAC  # a region this small of the colour is a part, partly seen
+CONFIDENT_KIND = 0.8  # a region scoring this for some kind is an object of that kind, not a pile
 
 
 @dataclass(frozen=True)
@@ -78,23 +96,39 @@ class ObjectPhrase:
     part: str | None = None  # a part of the object (PART_WORDS), e.g. its lid
     shade: str | None = None  # dark or light (SHADE_WORDS): among several of the colour, the darker or paler
     also: frozenset[str] = frozenset()  # kinds matched besides the shape word's
+    plural: bool = False  # the shape word was plural ("the screws"): every instance is meant
 
     @property
     def kinds(self) -> frozenset[str] | None:
         return None if self.shape is None else SHAPE_WORDS[self.shape] | self.also
 
 
+def shape_word(word: str) -> tuple[str, bool] | None:
+    """(shape word, plural) of a word: "screws" -> ("screw", True), "boxes" -> ("box", True); None if none."""
+    if word in SHAPE_WORDS:
+        return word, False
+    for ending in ("es", "s"):
+        stem = word.removesuffix(ending)
+        if stem != word and stem in SHAPE_WORDS:
+            return stem, True
+    return None
+
+
 def parse_phrase(phrase: str) -> ObjectPhrase:
     """Colour, shape and part words of an object phrase; other words are errors so typos do not go unnoticed."""
     colour = shape = part = shade = None
+    plural = False
     words = re.findall(r"[a-z]+", phrase.lower())
-    for w in words:
+    for k, w in enumerate(words):
+        nxt = shape_word(words[k + 1]) if k + 1 < len(words) else None
+        if w in FILLER_BEFORE_SHAPE and nxt is not None:
+            continue
         if w in SHADE_WORDS and shade is None:
             shade = w
         elif w in COLOUR_WORDS and colour is None:
             colour = COLOUR_WORDS[w]
-        elif w in SHAPE_WORDS and shape is None:
-            shape = w
+        elif shape_word(w) is not None and shape is None:
+            shape, plural = shape_word(w)
         elif w in PART_WORDS and part is None:
             part = w
         elif w not in FILLER_WORDS:
@@ -104,7 +138,7 @@ def parse_phrase(phrase: str) -> ObjectPhrase:
             )
     if colour is None and shape is None:
         raise SegmentationError(f"offline segmenter: {phrase!r} names no colour or shape word for the object")
-    return ObjectPhrase(colour, shape, part, shade if colour else None)
+    return ObjectPhrase(colour, shape, part, shade if colour else None, plural=plural)
 
 
 @dataclass(frozen=True)
@@ -139,8 +173,10 @@ class OfflineSegmenter(Segmenter):
         }
         candidates = [i for i in instances if id(i) not in lids]
         objects = _matching(candidates, want, self.min_shape_score)
+        if want.plural and want.colour is not None:  # several small parts touching are one region: a pile
+            objects += _piles(rgb, [i for i in candidates if all(i is not o for o in objects)], want)
         if not objects and want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
-            shut = ObjectPhrase(want.colour, want.shape, want.part, want.shade, SHUT_LOOKS_LIKE)  # a shut box
+            shut = ObjectPhrase(want.colour, want.shape, want.part, want.shade, SHUT_LOOKS_LIKE, want.plural)
             boxes = _matching(candidates, shut, self.min_shape_score)
             largest = max((i.region.area for i in boxes), default=0)
             objects = [i for i in boxes if i.region.area >= CHEST_AREA_RATIO * largest]  # a chest outsizes blocks
@@ -188,6 +224,23 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
     return sorted(found, key=lambda i: (-_score(i, want), -i.region.area))
 
 
+def _piles(rgb: np.ndarray, others: list[Instance], want: ObjectPhrase) -> list[Instance]:
+    """Regions of the named colour that are small parts too, of a plural phrase (its parts heaped in a dustpan,
+    half hidden behind a wall): no larger than PILE_AREA_FRAC of the image, and a fragment (at most two parts'
+    size), irregular (neither a block's, a can's nor a ball's outline) or no confident other kind: a region that is
+    a whole object of another kind is not one of them."""
+    out = []
+    for i in others:
+        frac = i.region.area / i.region.mask.size
+        if i.region.colour != want.colour or frac > PILE_AREA_FRAC:
+            continue
+        c = cues(i.region.mask, rgb)
+        irregular = c.rect_fill < PILE_FILL or c.ellipse_iou < PILE_ELLIPSE
+        if frac <= FRAGMENT_AREA_FRAC or irregular or max(i.scores.values()) < CONFIDENT_KIND:
+            out.append(i)
+    return out
+
+
 def _of_shade(found: list[Instance], shade: str) -> list[Instance]:
     """Among regions of one colour, the paler ("light": saturation well below the deepest's; shading leaves
     saturation alone) or the darker ("dark": value well below the brightest's)."""
@@ -226,9 +279,22 @@ def _lid(rgb: np.ndarray, whole: Instance, instances: list[Instance], want: Obje
     return None
 
 
+def _inside(mask: np.ndarray, own: np.ndarray) -> bool:
+    """Whether `own` lies just above `mask` along most of its top edge: the region is inside that object (screws
+    heaped in a dustpan), seen through its open top, not a lid on it (a lid's top edge meets what lies beyond)."""
+    v, u = np.nonzero(mask)
+    columns = np.unique(u)
+    tops = np.array([v[u == c].min() for c in columns])
+    covered = np.zeros(len(columns), bool)
+    for dv in range(1, ATTACHED_PX + 2):
+        covered |= own[np.clip(tops - dv, 0, None), columns]
+    return bool(covered.mean() >= ENCLOSED_TOP)
+
+
 def _attached_lid(whole: Instance, instances: list[Instance], any_shape: bool = False) -> Instance | None:
     """The largest region touching `whole` from above: over its width, reaching above its middle, covering
-    LID_MIN_FRACTION of it, and flat unless `any_shape` (a lid seen edge-on looks like anything but a ball)."""
+    LID_MIN_FRACTION of it, flat unless `any_shape` (a lid seen edge-on looks like anything but a ball), and not
+    inside it (what lies in an open box is no lid)."""
     own = whole.region.mask
     near = cv2.dilate(own.astype(np.uint8), np.ones((2 * ATTACHED_PX + 1,) * 2, np.uint8)).astype(bool)
     u0, v0, u1, v1 = box_of(own)
@@ -243,6 +309,7 @@ def _attached_lid(whole: Instance, instances: list[Instance], any_shape: bool = 
             and over >= 0.5 * (a1 - a0)
             and (b0 + b1) / 2 < middle
             and bool((i.region.mask & near).any())
+            and not _inside(i.region.mask, own)
         )
 
     return max((i for i in instances if i is not whole and lid_like(i)), key=lambda i: i.region.area, default=None)

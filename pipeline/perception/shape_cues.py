@@ -19,7 +19,25 @@ import numpy as np
 
 from pipeline.perception.colour_regions import hsv
 
-KINDS = ("box", "cylinder", "sphere", "plate", "bottle", "pan", "bowl", "platform", "lidded_box")
+KINDS = (
+    "box",
+    "cylinder",
+    "sphere",
+    "plate",
+    "bottle",
+    "pan",
+    "bowl",
+    "platform",
+    "lidded_box",
+    "cup",
+    "screw",
+    "brush",
+    "dustpan",
+    "dish_rack",
+    "stand",
+)
+SPECK_AREA_FRAC = 8e-4  # a screw's region at most this share of the image (the smallest block is above 9e-4)
+RESEMBLES = 0.9  # a kind that only resembles an older one (dustpan, rack, stand) scores at most this
 
 
 @dataclass(frozen=True)
@@ -34,6 +52,8 @@ class Cues:
     light_plate: float  # fraction of neutral light pixels (a scale's weighing plate)
     body_ellipse_iou: float  # ellipse_iou of the region opened by a disc a quarter of its width (thin parts cut)
     body_share: float  # the opened region's area / the region's
+    area_frac: float  # the region's share of the image
+    wide_elongation: float  # elongation of the region's wide part (its slices at least 0.6 of the widest)
 
 
 def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
@@ -63,6 +83,8 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
         edge_density=float((edges & inner).sum() / max(np.sqrt(area), 1.0)),
         light_plate=float(((sat[mask] < 0.06) & (val[mask] > 0.75)).mean()),
         **_body(m, np.ptp(u) + 1, np.ptp(v) + 1, area),
+        area_frac=area / mask.size,
+        wide_elongation=_wide_elongation(u, v),
     )
 
 
@@ -99,6 +121,23 @@ def _end_width(u: np.ndarray, v: np.ndarray) -> float:
     return float(min(widths[:2].mean(), widths[-2:].mean()) / widths.max())
 
 
+def _wide_elongation(u: np.ndarray, v: np.ndarray) -> float:
+    """Elongation (long over short spread) of the region's wide part: the slices across its long axis at least
+    0.6 of the widest. A brush's head is a bar across its handle; a pan's body is a disc, whatever its handle."""
+    pts = np.stack([u, v], axis=1).astype(np.float64)
+    pts -= pts.mean(axis=0)
+    _, _, vt = np.linalg.svd(pts, full_matrices=False)
+    s, t = pts @ vt[0], pts @ vt[1]
+    edges = np.linspace(*np.percentile(s, [2, 98]), 11)
+    index = np.clip(np.digitize(s, edges) - 1, 0, 9)
+    widths = np.array([np.ptp(t[index == k]) if (index == k).sum() > 3 else 0.0 for k in range(10)])
+    wide = pts[widths[index] >= 0.6 * widths.max()]
+    if len(wide) < 5:
+        return 1.0
+    low, high = np.linalg.eigvalsh(np.cov((wide - wide.mean(axis=0)).T))
+    return float(np.sqrt(high / max(low, 1e-9)))
+
+
 def _within(x: float, lo: float, hi: float, margin: float) -> float:
     """1 inside [lo, hi], falling linearly to 0 at `margin` outside."""
     return float(np.clip(1.0 - max(lo - x, x - hi, 0.0) / margin, 0.0, 1.0))
@@ -114,7 +153,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     body = _within(c.end_width, 0.8, 1.0, 0.1)  # as wide at its ends as in its middle
     necked = _within(c.end_width, 0.0, 0.66, 0.1) * _within(c.end_width, 0.32, 1.0, 0.1)
     round_body = _within(c.body_ellipse_iou, 0.94, 1.0, 0.02)  # an ellipse once thin parts are cut off
-    return {
+    out = {
         # a ball: round and smooth; an edited goal re-projects its seen half, which stretches it upward a little
         "sphere": _within(c.elongation, 1.0, 1.2, 0.08)
         * _within(c.aspect, 0.75, 1.1, 0.03)
@@ -151,6 +190,31 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * smooth,
         "bottle": necked * _within(c.elongation, 1.9, 4.5, 0.3),
     }
+    # the tasks' objects; a speck (a screw) is nothing else, a bar with a handle (a brush) is no pan
+    speck = _within(c.area_frac, 0.0, SPECK_AREA_FRAC, 2e-4) * _within(c.elongation, 1.6, inf, 0.3)
+    brush = _within(c.end_width, 0.0, 0.3, 0.1) * _within(c.wide_elongation, 1.7, inf, 0.2)
+    out = {k: v * (1.0 - speck) for k, v in out.items()}
+    # a rack: tines all over it (edges), and gaps between them (it fills little of its rectangle, a box much)
+    rack = _within(c.edge_density, 4.0, inf, 0.8) * _within(c.rect_fill, 0.0, 0.62, 0.05)
+    out["pan"] *= 1.0 - brush
+    out["lidded_box"] *= (1.0 - brush) * (1.0 - rack)
+    polygonal = _within(c.corners, 0.0, 6.5, 1.0)
+    out |= {
+        "screw": speck,
+        "brush": brush,
+        "cup": round_outline
+        * _within(c.edge_density, 2.5, inf, 0.6)
+        * _within(c.aspect, 0.45, 0.82, 0.08)
+        * _within(c.elongation, 1.3, 3.0, 0.1),
+        "dustpan": RESEMBLES * hollow * polygonal * _within(c.ellipse_iou, 0.0, 0.9, 0.04) * (1.0 - brush),
+        "dish_rack": rack * polygonal * (1.0 - brush),
+        "stand": RESEMBLES
+        * polygonal
+        * _within(c.rect_fill, 0.3, 0.72, 0.08)
+        * _within(c.end_width, 0.4, 1.0, 0.1)
+        * _within(c.edge_density, 0.0, 3.5, 0.5),
+    }
+    return out
 
 
 UNKNOWN = "unknown"  # a region no kind fits (an inpainting smear, a fragment)

@@ -5,11 +5,16 @@
     stand X up | stand up X
     push X [left|right|forward|backward|away|toward the camera] [by N (cm|mm|m)]
     close X
+    sweep X (into|onto|to|in) Y [with Z]
+    pick up X | pick X up | lift X [up] [by N (cm|mm|m)]
+    take X (off|off of|out of|from) Y
 
-X and Y are object phrases made of colour and shape words ("the red block", "the pan", "the dark blue bottle",
-"the lid of the blue box"); "to the left of" and "to the right of" are accepted too. Directions are as seen from
-the camera, on the table plane: left/right along the image, behind = farther from the camera, in front = nearer.
-Rotation is counterclockwise seen from above unless "clockwise" is given. A sentence outside the grammar is an
+X, Y and Z are object phrases made of colour and shape words ("the red block", "the pan", "the dark blue bottle",
+"the lid of the blue box"); only sweep's X may name several ("the screws"); "to the left of" and "to the right
+of" are accepted too. Directions are as seen from the camera, on the table plane: left/right along the image,
+behind = farther from the camera, in front = nearer. Rotation is counterclockwise seen from above unless
+"clockwise" is given. A sweep is done with a tool, Z or else the brush; a lift raises X by 10 cm unless told
+and holds it; a take-off lifts X clear of Y and sets it down on the table. A sentence outside the grammar is an
 error that quotes the grammar.
 """
 
@@ -19,10 +24,14 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
-from pipeline.perception.offline_segmenter import COLOUR_WORDS, SHAPE_WORDS, parse_phrase
+from pipeline.perception.offline_segmenter import COLOUR_WORDS, SHAPE_WORDS, parse_phrase, shape_word
 from pipeline.perception.segmenter import SegmentationError
 
-Action = Literal["place", "rotate", "stand_up", "push", "close"]
+Action = Literal["place", "rotate", "stand_up", "push", "close", "sweep", "lift", "take_off"]
+DEFAULT_TOOL = "brush"  # what a sweep is done with when the sentence names no tool
+DEFAULT_LIFT_M = 0.10
+SWEEP_RELATIONS = {"into": "in", "in": "in", "onto": "on", "to": "in"}
+OFF_RELATIONS = {"off of": "off", "off": "off", "out of": "out_of", "from": "off"}
 RELATIONS: dict[str, str] = {
     "on top of": "on",
     "into": "in",
@@ -66,7 +75,13 @@ class Instruction:
     reference: str | None = None  # place: object phrase Y
     angle_deg: float | None = None  # rotate: counterclockwise seen from above
     direction: str | None = None  # push: left, right, away, toward
-    distance_m: float | None = None  # push
+    distance_m: float | None = None  # push, lift
+    tool: str | None = None  # sweep: what it is done with
+
+    @property
+    def group(self) -> bool:
+        """The target phrase names several objects (a sweep's "screws")."""
+        return parse_phrase(self.target).plural
 
     def canonical(self) -> str:
         """The instruction re-written in the grammar (used as the offline editing prompt)."""
@@ -79,19 +94,35 @@ class Instruction:
         if self.action == "push":
             direction = {"away": "forward", "toward": "backward"}.get(self.direction, self.direction)
             return f"push the {self.target} {direction} by {self.distance_m * 100:g} cm"
+        if self.action == "sweep":
+            into = {"in": "into", "on": "onto"}[self.relation]
+            return f"sweep the {self.target} {into} the {self.reference} with the {self.tool}"
+        if self.action == "lift":
+            return f"lift the {self.target} by {self.distance_m * 100:g} cm"
+        if self.action == "take_off":
+            return f"take the {self.target} {'out of' if self.relation == 'out_of' else 'off'} the {self.reference}"
         return f"close the {self.target}"
 
 
-def _phrase(text: str, sentence: str) -> str:
+def _phrase(text: str, sentence: str, several: bool = False) -> str:
+    """The object phrase normalised (its shade, colour and shape words as written); one object unless `several`."""
     try:
         p = parse_phrase(text)
     except SegmentationError as e:
         raise InstructionError(f"{sentence!r}: {e}\n{GRAMMAR}") from None
+    if p.plural and not several:
+        raise InstructionError(
+            f"{sentence!r}: {text!r} names several objects; the offline grammar moves one at a time (only a "
+            f"sweep takes several)\n{GRAMMAR}"
+        )
     return " ".join(w for w in (p.shade, p.colour, _shape_word(text)) if w)
 
 
 def _shape_word(text: str) -> str | None:
-    return next((w for w in re.findall(r"[a-z]+", text) if w in SHAPE_WORDS), None)
+    """The shape word as written ("screws" stays plural), skipping a describing one ("dish" of "dish rack")."""
+    words = re.findall(r"[a-z]+", text)
+    found = [w for w in words if shape_word(w) is not None]
+    return found[-1] if len(found) > 1 and found[0] == "dish" else next(iter(found), None)
 
 
 _REL = "|".join(re.escape(r) for r in sorted(RELATIONS, key=len, reverse=True))
@@ -113,6 +144,20 @@ PATTERNS: tuple[tuple[str, re.Pattern[str]], ...] = (
         ),
     ),
     ("close", re.compile(r"^close (?P<x>.+)$")),
+    (
+        "sweep",
+        re.compile(
+            rf"^sweep (?P<x>.+?) (?P<rel>{'|'.join(SWEEP_RELATIONS)}) (?P<y>.+?)(?: (?:with|using) (?P<z>.+))?$"
+        ),
+    ),
+    (
+        "lift",
+        re.compile(
+            r"^(?:pick up (?P<x1>.+)|pick (?P<x2>.+?) up|lift (?:up )?(?P<x3>.+?)(?: up)?"
+            r"(?: by (?P<n>\d+(?:\.\d+)?) ?(?P<unit>cm|mm|m))?)$"
+        ),
+    ),
+    ("take_off", re.compile(r"^take (?P<x>.+?) (?P<rel>off of|off|out of|from) (?P<y>.+)$")),
 )
 
 
@@ -152,6 +197,19 @@ def parse_instruction(sentence: str, default_push_m: float = 0.10) -> Instructio
                 raise InstructionError(f"{sentence!r}: push distance {dist:.3f} m outside (0, 0.5] m")
             direction = PUSH_DIRECTIONS[g["dir"]] if g["dir"] else "away"
             return Instruction("push", _phrase(g["x"], sentence), direction=direction, distance_m=dist)
+        if action == "sweep":
+            tool = _phrase(g["z"], sentence) if g["z"] else DEFAULT_TOOL
+            target = _phrase(g["x"], sentence, several=True)
+            return Instruction("sweep", target, SWEEP_RELATIONS[g["rel"]], _phrase(g["y"], sentence), tool=tool)
+        if action == "lift":
+            dist = float(g["n"]) * UNITS_M[g["unit"]] if g["n"] else DEFAULT_LIFT_M
+            if not 0.02 <= dist <= 0.3:
+                raise InstructionError(f"{sentence!r}: lift height {dist:.3f} m outside [0.02, 0.3] m")
+            return Instruction("lift", _phrase(g["x1"] or g["x2"] or g["x3"], sentence), distance_m=dist)
+        if action == "take_off":
+            return Instruction(
+                "take_off", _phrase(g["x"], sentence), OFF_RELATIONS[g["rel"]], _phrase(g["y"], sentence)
+            )
         return Instruction("close", _phrase(g["x"], sentence))
     raise InstructionError(f"{sentence!r} is not in the offline instruction grammar:\n{GRAMMAR}")
 

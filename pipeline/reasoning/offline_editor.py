@@ -7,7 +7,10 @@ a placement's goal that is none of these is refused with the reason), projected 
 z-buffer (correct perspective scale and occlusion) and splatted; the vacated region is inpainted (cv2.inpaint).
 For "stand up" the hidden underside turns into view, so the lying body is first completed as a solid of revolution.
 For "close" only the object's lid moves: it turns about the line where it meets the box (the hinge grounding
-also finds) until it lies flat over the box.
+also finds) until it lies flat over the box. "Lift" raises the object straight up. "Take X off Y" sets X down on
+the table at the first free spot beside Y (in front, then to the sides, then behind), laid on its face when it
+stood on its rim (a plate in a rack). "Sweep X into Y" moves every instance of X into the container Y: the group
+keeps its layout, drawn together about the container floor's centre as far as needed to fit on it.
 The goal's depth is composed the same way and handed over as normalised disparity (like a relative monocular
 model), together with the applied rigid motion, which is the ground truth a benchmark compares grounding to.
 """
@@ -15,10 +18,12 @@ model), together with the applied rigid motion, which is the ground truth a benc
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
 from scipy.ndimage import distance_transform_edt, median_filter
+from scipy.spatial import ConvexHull
 
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.articulation import HingeNotFound, find_hinge
@@ -107,6 +112,8 @@ class OfflineEditor(ImageEditor):
         rgb, depth_m, K = request.rgb, request.depth_m, request.intrinsics
         if instr.action == "close":
             return self._close(rgb, depth_m, K, instr.target)
+        if instr.action == "sweep":
+            return self._sweep(request, instr)
         mask_x = _single(self.segmenter, rgb, instr.target)
         cloud = K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3)
         plane = fit_table_plane(cloud)
@@ -119,6 +126,12 @@ class OfflineEditor(ImageEditor):
             fy = footprint(py, plane)
             if instr.relation in ("on", "in"):  # the reference is where it goes, not in its way
                 exclude |= grow(mask_y, 3)
+            if instr.action == "take_off":  # X stands on Y: pixels of X whose depth is Y's (its edge) are Y's
+                keep = ~_on_support(px, plane, py)
+                mask_x = mask_x.copy()
+                mask_x[mask_x] = keep
+                px = px[keep]
+                fx = footprint(px, plane)
         table = Table(depth_m, K, plane, exclude, request.T_base_camera, self.placement)
         R, pivot, t = self._motion(instr, plane, fx, fy, table)
         T = np.eye(4)
@@ -127,6 +140,8 @@ class OfflineEditor(ImageEditor):
         colours = rgb[mask_x]
         if instr.action == "stand_up":  # the hidden underside turns into view: complete the body first
             px, colours = revolve(fx, colours, plane)
+        elif instr.action == "take_off" and not np.allclose(R, np.eye(3)):  # a face turned towards the camera
+            px, colours = _subsampled(px, colours)  # shows more of it than its pixels covered
         goal_rgb, goal_depth = _render(rgb, depth_m, K, plane, mask_x, px, colours, T)
         return goal_rgb, goal_depth, T
 
@@ -153,6 +168,42 @@ class OfflineEditor(ImageEditor):
         angle = math.atan2(float(np.cross(now, closed) @ hinge.axis), float(now @ closed))
         T = hinge.turn(angle).matrix
         goal_rgb, goal_depth = _render(rgb, depth_m, K, plane, mask_lid, lid, rgb[mask_lid], T, keep=mask_box)
+        return goal_rgb, goal_depth, T
+
+    def _sweep(self, request: EditRequest, instr: Instruction) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every instance of the target moved onto the container's floor, the group's layout kept and drawn
+        together about the floor's centre as far as it needs to fit; T is the group centroid's motion."""
+        rgb, depth_m, K = request.rgb, request.depth_m, request.intrinsics
+        try:
+            found = self.segmenter.segment(rgb, instr.target)
+        except SegmentationError as e:
+            raise _refuse(str(e)) from None
+        if not found:
+            raise _refuse(f"'{instr.target}' matches no object in the current image")
+        mask_y = _single(self.segmenter, rgb, instr.reference)
+        plane = fit_table_plane(K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3))
+        floor = container_floor(object_points(depth_m, K, mask_y)[0], plane)
+        parts = [object_points(depth_m, K, d.mask)[0] for d in found]
+        centres = np.array([footprint(pts, plane).centre for pts in parts])
+        # a part's centre keeps half its reach from the floor's edge: a long part may lie along it
+        radius = 0.5 * max(footprint(pts, plane).radius_m for pts in parts)
+        group_centre = centres.mean(axis=0)
+        for s in (1.0, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.0):  # drawn together no more than it must
+            goals = floor.centre + s * (centres - group_centre)
+            if floor.holds(goals, radius):
+                break
+        else:
+            raise GeometryError(
+                f"the {instr.target} do not fit on the {instr.reference}'s floor (parts {4 * radius * 1000:.0f} mm "
+                f"long, floor {floor.size_m * 1000:.0f} mm across)"
+            )
+        shifts = goals - centres + floor.height_m * plane.n
+        moved = np.concatenate([pts + shift for pts, shift in zip(parts, shifts, strict=True)])
+        mask_x = np.any([d.mask for d in found], axis=0)
+        colours = np.concatenate([rgb[d.mask & np.isfinite(depth_m)] for d in found])
+        goal_rgb, goal_depth = _render(rgb, depth_m, K, plane, mask_x, moved, colours, np.eye(4))
+        T = np.eye(4)
+        T[:3, 3] = floor.centre - group_centre + floor.height_m * plane.n
         return goal_rgb, goal_depth, T
 
     @staticmethod
@@ -196,6 +247,14 @@ class OfflineEditor(ImageEditor):
             return eye, zero, shift
         if instr.action == "rotate":
             return axis_rotation(plane.n, math.radians(instr.angle_deg)), top_centre(fx, plane), zero
+        if instr.action == "lift":
+            shift = instr.distance_m * plane.n
+            problem = table.problem(fx, shift)
+            if problem is not None:
+                raise GeometryError(f"cannot {instr.canonical()}: up there it would be {problem}")
+            return eye, zero, shift
+        if instr.action == "take_off":
+            return _take_off(instr, plane, fx, fy, table)
         if instr.action == "push":
             direction = {"left": -right, "right": right, "away": away, "toward": -away}[instr.direction]
             problem = table.problem(fx, direction * instr.distance_m)
@@ -213,6 +272,108 @@ class OfflineEditor(ImageEditor):
             R = axis_rotation(tilt_axis, -math.pi / 2)
         lowest = plane.height((fx.points - pivot) @ R.T + pivot).min()
         return R, pivot, -lowest * plane.n
+
+
+FLOOR_BAND_M = 0.006  # a container's points this close above its lowest are its floor
+FLOOR_MARGIN_M = 0.008  # kept between a part put on a floor and the floor's seen edge
+
+
+@dataclass(frozen=True)
+class Floor:
+    """A container's floor seen from the camera: its points' convex outline on the table plane."""
+
+    plane: Plane
+    hull: ConvexHull  # of the floor points in plane coordinates (e1, e2)
+    e1: np.ndarray
+    e2: np.ndarray
+    centre: np.ndarray  # camera frame, on the table plane
+    height_m: float  # above the table
+
+    @property
+    def size_m(self) -> float:
+        """Twice the distance from the centre to the nearest edge of the floor."""
+        return float(2 * np.min(-self.hull.equations[:, 2]))
+
+    def holds(self, centres: np.ndarray, radius_m: float) -> bool:
+        """Whether discs of radius_m at these centres (camera frame) lie inside the floor, with a margin (the
+        hull's coordinates have the floor's centre at their origin)."""
+        q = np.stack([(centres - self.centre) @ self.e1, (centres - self.centre) @ self.e2], axis=1)
+        eq = self.hull.equations
+        return bool((q @ eq[:, :2].T + eq[:, 2] <= -(radius_m + FLOOR_MARGIN_M)).all())
+
+
+def container_floor(points: np.ndarray, plane: Plane) -> Floor:
+    """The floor of a low container (a dustpan): its points lying within FLOOR_BAND_M of its lowest."""
+    if len(points) < 20:
+        raise GeometryError(f"the container shows only {len(points)} points with depth")
+    h = plane.height(points)
+    low = points[h < np.percentile(h, 3) + FLOOR_BAND_M]
+    if len(low) < 20:
+        raise GeometryError("the container shows no floor")
+    centre = plane.project(low.mean(axis=0))
+    e1 = plane.in_plane(np.array([1.0, 0.0, 0.0]))
+    e2 = np.cross(plane.n, e1)
+    q = np.stack([(low - centre) @ e1, (low - centre) @ e2], axis=1)
+    return Floor(plane, ConvexHull(q), e1, e2, centre, float(np.median(plane.height(low))))
+
+
+TAKE_OFF_SIDES = ("in_front_of", "right_of", "left_of", "behind")  # where a taken-off object goes, in order
+ON_EDGE_RATIO = 0.35  # an object whose thinnest extent is horizontal and below this share of the next stands on edge
+
+
+def _on_support(points: np.ndarray, plane: Plane, support: np.ndarray) -> np.ndarray:
+    """Which of an object's points are its support's (depth bleeding across the edge): within 5 mm of them."""
+    from scipy.spatial import cKDTree
+
+    if len(support) == 0:
+        return np.zeros(len(points), bool)
+    d, _ = cKDTree(support).query(points, distance_upper_bound=0.005)
+    return np.isfinite(d)
+
+
+def _take_off(
+    instr: Instruction, plane: Plane, fx: Footprint, fy: Footprint, table: Table
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """X off its support Y, set down on the table beside Y: the first free spot in front of Y, to its sides or
+    behind it; an object standing on edge (a plate in a rack) is laid on its face, the face the camera sees up."""
+    right = plane.in_plane(np.array([1.0, 0.0, 0.0]))
+    away = plane.in_plane(np.array([0.0, 0.0, 1.0]))
+    sides = {"left_of": -right, "right_of": right, "behind": away, "in_front_of": -away}
+    R, pivot = np.eye(3), fx.points.mean(axis=0)
+    thin = _thin_axis(fx.points)
+    if thin is not None and abs(thin @ plane.n) < 0.5:  # on edge: its face turns up
+        face = thin if thin @ -pivot > 0 else -thin  # the seen side faces the camera (at the origin)
+        axis = np.cross(face, plane.n)
+        angle = math.acos(float(np.clip(face @ plane.n, -1.0, 1.0)))
+        R = axis_rotation(axis, angle)
+    turned = (fx.points - pivot) @ R.T + pivot
+    lowest = float(plane.height(turned).min())
+    moved = footprint(turned, plane)
+    problems = []
+    for side in TAKE_OFF_SIDES:
+        where = f"{side.replace('_', ' ')} the {instr.reference}"
+        shift, why = spot_beside(table, moved, fy, sides[side], where)
+        if shift is not None:  # measured from the turned footprint: R about the pivot, then the shift, down
+            return R, pivot, shift - lowest * plane.n
+        problems.append(why)
+    raise GeometryError(f"cannot {instr.canonical()}: " + "; ".join(problems))
+
+
+def _subsampled(points: np.ndarray, colours: np.ndarray, k: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """The points with the midpoints to their k nearest neighbours added (their colours): a surface turned to face
+    the camera spans more pixels than it was seen on, and would show holes between its points."""
+    from scipy.spatial import cKDTree
+
+    _, index = cKDTree(points).query(points, k=k + 1)
+    mids = 0.5 * (points[:, None, :] + points[index[:, 1:]])
+    return np.vstack([points, mids.reshape(-1, 3)]), np.vstack([colours, np.repeat(colours, k, axis=0)])
+
+
+def _thin_axis(points: np.ndarray) -> np.ndarray | None:
+    """The direction of an object's thinnest extent when it is flat (a plate), else None."""
+    centred = points - points.mean(axis=0)
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    return vt[2] if sv[2] < ON_EDGE_RATIO * sv[1] else None
 
 
 def _render(

@@ -23,7 +23,15 @@ Write `target_object`: a short noun phrase (two to four words, e.g. "red block")
 suitable for an open-vocabulary detector. Write `reference_object`: the same for the object it is placed relative
 to, or an empty string if there is none. When only a part of an object moves (a lid that closes, a door that
 opens), `target_object` names that part (e.g. "lid of the blue box") and `anchor_object` the object it belongs to
-(e.g. "blue box"), which stays where it is; otherwise `anchor_object` is an empty string. Answer with JSON only."""
+(e.g. "blue box"), which stays where it is; otherwise `anchor_object` is an empty string. When the instruction
+moves several like objects together (sweep the screws into the dustpan), `target_object` names them in the plural
+(e.g. "yellow screws"), `several_targets` is true, the edit shows every one of them moved, and `reference_object`
+names where they go; otherwise `several_targets` is false. When the robot must use a tool to move them (a
+sweep is done with a brush unless the instruction names another tool), `tool_object` names the tool (e.g. "blue
+brush") and the edit shows the tool exactly where it is now; otherwise `tool_object` is an empty string. Lifting
+or picking up an object shows it raised straight up, held in the air, the stated height or 10 cm; taking an
+object off or out of its support shows it standing on the table next to the support, which is left empty.
+Answer with JSON only."""
 
 REFLECT = """You check a candidate goal for a robot. The operator's instruction is:
 
@@ -32,9 +40,11 @@ REFLECT = """You check a candidate goal for a robot. The operator's instruction 
 The image-editing model was asked: {prompt}
 
 The image shows the ORIGINAL scene with the edited result of the moved object ({target}) blended in
-semi-transparently where the editor put it. Decide whether the blended object's position and orientation carry out
-the instruction physically plausibly: it rests on a support, does not intersect other objects, has its original
-size and appearance, and stands in the requested relation to the other objects.
+semi-transparently where the editor put it (several like objects, when the target names several: all of them).
+Decide whether the blended object's position and orientation carry out the instruction physically plausibly: it
+rests on a support (or, lifted, is held straight above where it was), does not intersect other objects, has its
+original size and appearance, and stands in the requested relation to the other objects (swept parts: every one
+of them inside the container).
 Answer with JSON only: `valid` (true or false), `reasons` (short sentences, what is right or wrong) and
 `revised_prompt` (when invalid: a corrected editing prompt that fixes what was wrong; when valid: an empty string)."""
 
@@ -56,5 +66,11 @@ def enhance_with(
     reply = parse_reply(raw, EnhancementReply, what)
     optional = lambda text: text.strip() or None  # noqa: E731
     return Enhancement(
-        reply.edit_prompt, reply.target_object, optional(reply.reference_object), raw, optional(reply.anchor_object)
+        reply.edit_prompt,
+        reply.target_object,
+        optional(reply.reference_object),
+        raw,
+        optional(reply.anchor_object),
+        tool=optional(reply.tool_object),
+        group=reply.several_targets,
     )

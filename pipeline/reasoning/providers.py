@@ -119,14 +119,19 @@ class EnhancementReply(BaseModel):
     target_object: str
     reference_object: str
     anchor_object: str
+    # asked of every model (the schema requires them); a reply from before they existed still parses
+    tool_object: str = ""
+    several_targets: bool = False
 
 
 def json_schema(model: type[BaseModel]) -> dict:
-    """A strict JSON schema (every property required, no extras), accepted by both providers."""
+    """A strict JSON schema (every property required, no extras, no defaults), accepted by both providers."""
     schema = model.model_json_schema()
     schema.pop("title", None)
     for prop in schema["properties"].values():
         prop.pop("title", None)
+        prop.pop("default", None)
+    schema["required"] = list(schema["properties"])
     schema["additionalProperties"] = False
     return schema
 

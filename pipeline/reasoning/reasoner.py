@@ -20,7 +20,7 @@ from drivers.types import RGBDFrame
 from pipeline.config import PipelineConfig
 from pipeline.perception.depth import DepthEstimationError, DepthEstimator
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, matches
-from pipeline.reasoning import checks
+from pipeline.reasoning import checks, group
 from pipeline.reasoning.instruction import with_colour_found
 from pipeline.reasoning.interfaces import ImageEditor, TextVLM
 from pipeline.reasoning.providers import ProviderError
@@ -89,18 +89,35 @@ class Reasoner:
         seconds["enhance"] = time.perf_counter() - t0
         rec.json(
             "enhancement.json",
-            {"prompt": enh.prompt, "target": enh.target, "reference": enh.reference, "anchor": enh.anchor},
+            {
+                "prompt": enh.prompt,
+                "target": enh.target,
+                "reference": enh.reference,
+                "anchor": enh.anchor,
+                "tool": enh.tool,
+                "group": enh.group,
+            },
         )
         rec.text("enhancement_raw.txt", enh.raw)
 
         t0 = time.perf_counter()
         initial = self._segment(rgb, enh.target)
         seconds["segment"] = time.perf_counter() - t0
-        if len(initial) != 1:
+        if enh.group:
+            mask_init = group.initial_union(initial, enh.target)
+        elif len(initial) != 1:
             reason = f"target '{enh.target}' {matches(initial)} in the initial image (needs exactly one)"
             raise ReasoningError(reason, [reason])
-        mask_init = initial[0].mask
+        else:
+            mask_init = initial[0].mask
         rec.image("mask_init.png", mask_init)
+        mask_tool = mask_reference = None
+        if enh.tool or enh.group:  # a sweep: the tool it is done with and the container it goes into
+            mask_tool = self._single(rgb, enh.tool, "tool") & ~mask_init if enh.tool else None
+            mask_reference = self._single(rgb, enh.reference, "reference") & ~mask_init if enh.reference else None
+            for name, mask in (("mask_tool.png", mask_tool), ("mask_reference.png", mask_reference)):
+                if mask is not None:
+                    rec.image(name, mask)
         enh = replace(enh, target=with_colour_found(enh.target, initial[0].label))  # to find it again, moved
         mask_anchor = None
         if enh.anchor:
@@ -116,7 +133,8 @@ class Reasoner:
         for index in range(1, cfg.reflection_iterations + 1):
             it = Iteration(index, prompt)
             iterations.append(it)
-            candidate = self._iterate(frame, instruction, enh, mask_init, it, rec, seconds)
+            group_size = len(initial) if enh.group else None
+            candidate = self._iterate(frame, instruction, enh, mask_init, it, rec, seconds, group_size)
             rec.json("iteration.json", it, index)
             if candidate is not None:
                 usable = candidate
@@ -161,6 +179,11 @@ class Reasoner:
             T_goal_init_camera=accepted.result.T_goal_init_camera,
             seconds=seconds,
             mask_anchor=mask_anchor,
+            group_size=len(initial) if enh.group else None,
+            tool=enh.tool,
+            mask_tool=mask_tool,
+            reference=enh.reference if mask_reference is not None else None,
+            mask_reference=mask_reference,
         )
         rec.image("goal.png", goal.rgb_goal)
         rec.image("mask_goal.png", goal.mask_goal)
@@ -181,14 +204,25 @@ class Reasoner:
         )
         return goal
 
+    def _single(self, rgb: np.ndarray, phrase: str, role: str) -> np.ndarray:
+        """The one instance `phrase` names in the initial image (a sweep's tool or container), else ReasoningError."""
+        found = self._segment(rgb, phrase)
+        if len(found) != 1:
+            reason = f"{role} '{phrase}' {matches(found)} in the initial image (needs exactly one)"
+            raise ReasoningError(reason, [reason])
+        return found[0].mask
+
     def _segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
         try:
             return self.segmenter.segment(rgb, phrase)
         except SegmentationError as e:
             raise ReasoningError(f"segmentation of '{phrase}' failed: {e}", [str(e)]) from e
 
-    def _iterate(self, frame, instruction, enh, mask_init, it: Iteration, rec: Recorder, seconds) -> _Candidate | None:
-        """One generate -> check -> synthesize -> reflect pass; fills `it`, returns a usable candidate or None."""
+    def _iterate(
+        self, frame, instruction, enh, mask_init, it: Iteration, rec: Recorder, seconds, group_size: int | None = None
+    ) -> _Candidate | None:
+        """One generate -> check -> synthesize -> reflect pass; fills `it`, returns a usable candidate or None.
+        group_size: a group target's instances in the initial image (None: one object)."""
         cfg, rgb, i = self.config.checks, frame.rgb, it.index
         rec.text("prompt.txt", it.prompt, i)
 
@@ -226,16 +260,20 @@ class Reasoner:
                 it.registered = True
                 it.checks.append(f"{note}; re-registered ({100 * uncovered:.1f} % of the view uncovered)")
                 found = self._segment(cand, enh.target)
-        alike = checks.like_the_target(found, rgb, mask_init, cand)
-        if len(alike) < len(found):
-            areas = ", ".join(str(d.area_px) for d in found)
-            it.checks.append(
-                f"target '{enh.target}' matched {len(found)} regions (areas {areas} px): took the one "
-                f"of the target's size ({alike[0].area_px} px, {int(mask_init.sum())} px before)"
-            )
-            found = alike
-        problems += checks.target_count_problems(found, enh.target)
-        mask_goal = found[0].mask if len(found) == 1 else None
+        if enh.group:
+            problems += group.count_problems(found, group_size, enh.target)
+            mask_goal = np.any([d.mask for d in found], axis=0) if found and not problems else None
+        else:
+            alike = checks.like_the_target(found, rgb, mask_init, cand)
+            if len(alike) < len(found):
+                areas = ", ".join(str(d.area_px) for d in found)
+                it.checks.append(
+                    f"target '{enh.target}' matched {len(found)} regions (areas {areas} px): took the one "
+                    f"of the target's size ({alike[0].area_px} px, {int(mask_init.sum())} px before)"
+                )
+                found = alike
+            problems += checks.target_count_problems(found, enh.target)
+            mask_goal = found[0].mask if len(found) == 1 else None
         if mask_goal is not None:
             exclude = checks.grow(mask_init | mask_goal, cfg.mask_margin_px)
             problems += checks.background_problems(rgb, cand, exclude, cfg)

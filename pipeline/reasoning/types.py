@@ -23,7 +23,9 @@ class Enhancement:
     """The enhancer's output: an editing prompt and the phrases that name the target (and reference) objects.
 
     `anchor` names the object the target is a part of when only that part moves (a box whose lid closes): the
-    anchor stays put, and grounding uses where the part meets it as the hinge.
+    anchor stays put, and grounding uses where the part meets it as the hinge. `group`: the target phrase names
+    several like objects (the screws of a sweep), every instance is the target. `tool`: what the robot moves the
+    target with (a brush); it ends where it was.
     """
 
     prompt: str
@@ -31,6 +33,8 @@ class Enhancement:
     reference: str | None = None
     raw: str = ""
     anchor: str | None = None
+    tool: str | None = None
+    group: bool = False
 
 
 @dataclass(frozen=True)
@@ -117,6 +121,12 @@ class GoalState:
     T_goal_init_camera: np.ndarray | None = None  # only from the offline editor (known by construction)
     seconds: dict[str, float] = field(default_factory=dict)
     mask_anchor: np.ndarray | None = None  # initial-view mask of the object the moving part is attached to
+    # a group target (the screws): how many instances the initial image shows; mask_init/mask_goal are their union
+    group_size: int | None = None
+    tool: str | None = None  # what the target is moved with (a sweep's brush) ...
+    mask_tool: np.ndarray | None = None  # ... and its initial-view mask
+    reference: str | None = None  # with a group or a tool: the object the target goes into (the dustpan) ...
+    mask_reference: np.ndarray | None = None  # ... and its initial-view mask
 
     @property
     def prompts(self) -> tuple[str, ...]:

@@ -60,6 +60,23 @@ TASKS: dict[str, TaskSpec] = {
     "close_lid": TaskSpec(
         scene="close_lid", instruction="close the blue chest", action="close", target="box", truth="hinge_shut"
     ),
+    "table_sweep": TaskSpec(
+        scene="table_sweep",
+        instruction="sweep the screws into the dustpan",
+        action="sweep",
+        target=None,
+        truth="task_done",
+    ),
+    "pick_up": TaskSpec(
+        scene="pick_up", instruction="pick up the red cup", action="lift", target="red_cup", truth="task_done"
+    ),
+    "take_off": TaskSpec(
+        scene="take_off",
+        instruction="take the red block off the stand",
+        action="take off",
+        target="red_block",
+        truth="task_done",
+    ),
 }
 
 

@@ -6,8 +6,8 @@ a run that ended before executing never moved anything, so it is not done; one t
 truth (None). The tolerances are the verification's own. A place is judged by where the object's centre ended (it
 may leave it turned: a ball dropped into a bowl); a turn or a stand-up also by how far its shape is turned from
 the goal's turn, up to the turns its shape does not show; a push by not having tipped the object (a twist along
-the way is no matter). New tasks with their own truth (the fraction of screws in a dustpan) add a rule to RULES
-and a TaskSpec naming it.
+the way is no matter). Tasks with their own truth (the fraction of screws in a dustpan, an object lifted clear)
+use `task_done`, which reads the listener's task truth.
 """
 
 from __future__ import annotations
@@ -70,11 +70,21 @@ def hinge_shut(case: Case, summary: RunSummary) -> bool | None:
     return bool(angles) and max(abs(a) for a in angles) <= LID_SHUT_DEG
 
 
+def task_done(case: Case, summary: RunSummary) -> bool | None:
+    """The task's own truth (runtime.sim_truth.tasks): a sweep's parts in the dustpan, an object lifted clear, a
+    support left empty."""
+    truth = summary.sim_truth
+    if truth is None:
+        return _without_truth(summary)
+    return bool(truth.task is not None and truth.task.done)
+
+
 RULES: dict[str, Rule] = {
     "goal_error": goal_error,
     "goal_turn": goal_turn,
     "goal_upright": goal_upright,
     "hinge_shut": hinge_shut,
+    "task_done": task_done,
 }
 
 

@@ -16,7 +16,7 @@ from pipeline.contact.clouds import SceneClouds
 from pipeline.contact.gripper import GripperBoxes
 from pipeline.contact.planner import plan_contacts
 from pipeline.contact.symmetry import turn_deg
-from pipeline.contact.types import ContactMode, ContactPlan
+from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan
 from pipeline.reasoning.instruction import parse_instruction
 from runtime.run.context import RunContext, StageError
 from runtime.run.summary import ContactRecord
@@ -45,19 +45,34 @@ def lowest_safe_tcp_height(robot: RobotModel, padding_m: float) -> float:
     return -lowest + TABLE_MARGIN_M
 
 
+def instruction_action(instruction: str) -> str | None:
+    """The grammar's action of the sentence, None for free text (a model backend's)."""
+    try:
+        return parse_instruction(instruction).action
+    except ValueError:
+        return None
+
+
+def contact_config(ctx: RunContext, robot: RobotModel) -> ContactConfig:
+    """The profile's contact settings made to propose only what the gate passes (see the module docstring); a
+    lift is held at its goal, with no set-down poses above it."""
+    padding = ctx.profile.safety.padding_m
+    config = ctx.profile.pipeline.contact
+    lifts = () if instruction_action(ctx.instruction) == "lift" else place_heights(padding)
+    return config.model_copy(
+        update={
+            "min_tcp_height_m": max(config.min_tcp_height_m, lowest_safe_tcp_height(robot, padding)),
+            "collision_padding_m": max(config.collision_padding_m, padding),
+            "place_lifts_m": lifts,
+        }
+    )
+
+
 def contact_plans(ctx: RunContext, clouds: SceneClouds, robot: RobotModel, q_start: np.ndarray) -> list[ContactPlan]:
     """Ranked contact plans, recorded; StageError with pipeline.contact's rejection counts when there is none."""
     mode = contact_mode(ctx.instruction)
     motion = ctx.motion.T_base
-    padding = ctx.profile.safety.padding_m
-    config = ctx.profile.pipeline.contact
-    config = config.model_copy(
-        update={
-            "min_tcp_height_m": max(config.min_tcp_height_m, lowest_safe_tcp_height(robot, padding)),
-            "collision_padding_m": max(config.collision_padding_m, padding),
-            "place_lifts_m": place_heights(padding),
-        }
-    )
+    config = contact_config(ctx, robot)
     result = plan_contacts(
         clouds.target,
         clouds.scene,

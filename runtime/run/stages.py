@@ -21,11 +21,12 @@ from motion.clock import Clock
 from motion.executor import ExecutionRefused, Executor, ExecutorConfig
 from motion.limits import MotionLimits
 from motion.manipulation.chain import ManipulationChain, ManipulationRefused
-from motion.manipulation.phases import plan_manipulation
+from motion.manipulation.phases import ManipulationPlan, plan_lift, plan_manipulation
 from pipeline.contact.clouds import SceneClouds, scene_clouds
 from pipeline.contact.types import ContactPlan
 from pipeline.grounding.compare import rotation_deg
 from pipeline.grounding.ground import ground
+from pipeline.grounding.group import ground_group
 from pipeline.grounding.types import GroundingInput
 from pipeline.perception.features import FeatureExtractor, features_from_config
 from pipeline.perception.segmenter import Segmenter
@@ -34,7 +35,7 @@ from pipeline.reasoning.reasoner import Reasoner, synthesize
 from pipeline.reasoning.types import ReasoningError
 from runtime.devices import Devices
 from runtime.messaging.messages import PlanSummary
-from runtime.run.contact import contact_plans
+from runtime.run.contact import contact_plans, instruction_action
 from runtime.run.context import RunContext, StageError
 from runtime.run.overlay import draw_tcp_poses
 from runtime.run.second_look import look_again
@@ -46,12 +47,14 @@ from runtime.run.summary import (
     ReasoningRecord,
     Verification,
 )
+from runtime.run.sweep import plan_sweep_stage
 from runtime.run.verification import verify_run
 from safety.robot_model import RobotModel
 
 log = logging.getLogger(__name__)
 
 MAX_CONTACTS = 3  # ranked contact decisions tried before planning gives up
+GRASPING_MODES = ("grasp", "sweep")  # a close in these grasps something (an object, a tool): closing on nothing stops
 PLAN_ATTEMPTS = 2  # planning attempts per contact when a path search failed (OMPL is randomised)
 SETTLE_S = 0.3  # after the last phase, before the capture that verifies: the object comes to rest
 ABORT_REST_S = 2.0  # an operator abort: how long the executor may take to come to rest on its path
@@ -130,12 +133,17 @@ class PipelineStages:
 
     def ground(self, ctx: RunContext) -> None:
         frame = ctx.frame0
-        motion = ground(
-            GroundingInput.from_goal(frame, ctx.goal),
-            self._features_backend(ctx),
-            ctx.profile.pipeline.grounding,
-            T_base_camera=frame.T_base_camera,
-        )
+        if ctx.goal.group_size is not None:  # several like parts: their centroid's motion
+            motion = ground_group(
+                GroundingInput.from_goal(frame, ctx.goal), ctx.profile.pipeline.grounding, frame.T_base_camera
+            )
+        else:
+            motion = ground(
+                GroundingInput.from_goal(frame, ctx.goal),
+                self._features_backend(ctx),
+                ctx.profile.pipeline.grounding,
+                T_base_camera=frame.T_base_camera,
+            )
         ctx.record.summary.object_motion = MotionRecord.of(motion)
         if not motion.ok:
             raise StageError(f"grounding refused: {motion.reason}")
@@ -154,6 +162,39 @@ class PipelineStages:
         profile, frame = ctx.profile, ctx.frame0
         robot = RobotModel()
         q_start = ctx.devices.arm.read_state().q
+        action = instruction_action(ctx.instruction)
+        if action == "sweep":
+            contact, manipulation = plan_sweep_stage(ctx, robot, q_start)
+        else:
+            phases = plan_lift if action == "lift" else plan_manipulation
+            contact, manipulation = self._plan_contact(ctx, robot, q_start, phases)
+        ctx.contact, ctx.manipulation = contact, manipulation
+        poses = draw_tcp_poses(frame.rgb, frame.intrinsics, frame.T_base_camera, manipulation.tcp_waypoints)
+        ctx.record.image("plan", poses)
+        motion = ctx.motion.T_base
+        return PlanSummary(
+            stamp_s=time.time(),
+            plan_id=uuid.uuid4().hex[:10],
+            run_id=ctx.record.run_id,
+            instruction=ctx.instruction,
+            mode=contact.mode if action != "lift" else "lift",
+            duration_s=manipulation.duration_s,
+            peak_joint_speed_rad_s=manipulation.peak_joint_speed_rad_s,
+            min_clearance_m=profile.safety.padding_m,
+            samples=manipulation.samples,
+            gate_ok=True,
+            object_motion={
+                "translation_m": np.round(motion[:3, 3], 3).tolist(),
+                "rotation_deg": round(rotation_deg(motion[:3, :3]), 1),
+            },
+        )
+
+    def _plan_contact(
+        self, ctx: RunContext, robot: RobotModel, q_start: np.ndarray, phases: Callable
+    ) -> tuple[ContactPlan, ManipulationPlan]:
+        """The best-ranked contact whose manipulation (`phases` of it) plans and passes the gate, and that
+        manipulation."""
+        profile, frame = ctx.profile, ctx.frame0
         clouds = ctx.clouds = scene_clouds(
             frame, ctx.goal.mask_init, robot, q_start, workspace=profile.safety.workspace
         )
@@ -171,7 +212,7 @@ class PipelineStages:
         for contact in self.contacts(ctx, clouds, robot, q_start)[:MAX_CONTACTS]:
             for attempt in range(1, PLAN_ATTEMPTS + 1):
                 try:
-                    manipulation = plan_manipulation(chain, contact)
+                    manipulation = phases(chain, contact)
                     break
                 except ManipulationRefused as e:
                     refusal = f"{contact.source}: {e}" + (f" ({attempt} attempts)" if attempt > 1 else "")
@@ -186,26 +227,7 @@ class PipelineStages:
             ctx.record.summary.planning = PlanningRecord(refusals=refusals)
             raise StageError("no contact could be planned:\n  " + "\n  ".join(refusals))
         ctx.record.summary.planning = PlanningRecord(contact_used=contact.source, refusals=refusals)
-        ctx.contact, ctx.manipulation = contact, manipulation
-        poses = draw_tcp_poses(frame.rgb, frame.intrinsics, frame.T_base_camera, manipulation.tcp_waypoints)
-        ctx.record.image("plan", poses)
-        motion = ctx.motion.T_base
-        return PlanSummary(
-            stamp_s=time.time(),
-            plan_id=uuid.uuid4().hex[:10],
-            run_id=ctx.record.run_id,
-            instruction=ctx.instruction,
-            mode=contact.mode,
-            duration_s=manipulation.duration_s,
-            peak_joint_speed_rad_s=manipulation.peak_joint_speed_rad_s,
-            min_clearance_m=profile.safety.padding_m,
-            samples=manipulation.samples,
-            gate_ok=True,
-            object_motion={
-                "translation_m": np.round(motion[:3, 3], 3).tolist(),
-                "rotation_deg": round(rotation_deg(motion[:3, :3]), 1),
-            },
-        )
+        return contact, manipulation
 
     # -- the second look ----------------------------------------------------------------------------------
     def recheck(self, ctx: RunContext) -> LookRecord:
@@ -239,7 +261,7 @@ class PipelineStages:
             ctx.record.summary.execution = list(reports)
             if report.status != "completed":
                 raise StageError(f"{name} phase {report.status}: {report.reason}")
-            if manipulation.contact.mode == "grasp" and any(
+            if manipulation.contact.mode in GRASPING_MODES and any(
                 g.event.kind == "close" and g.grasped is False for g in report.gripper
             ):
                 raise StageError(f"{name} phase: the gripper closed on nothing (object not grasped)")

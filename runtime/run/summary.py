@@ -154,10 +154,43 @@ class AchievedRecord(Section):
     ball_centre_shift_m: list[float] | None = None
 
 
+class GroupCountRecord(Section):
+    """A sweep's verification: the parts counted inside the container after it, of those seen before."""
+
+    total: int
+    inside: int
+    outside: int
+    required: int
+
+
+class LiftCheckRecord(Section):
+    """A lift's verification: how the object's seen points rose, against the goal."""
+
+    lowest_rise_m: float  # its lowest seen point
+    centre_rise_m: float  # its seen centre
+    goal_rise_m: float
+    error_m: float  # seen centre to the goal's
+
+
 class Verification(Section):
     ok: bool
     reason: str
     comparison: Comparison | None = None  # absent when no achieved motion could be compared
+    group_count: GroupCountRecord | None = None  # a sweep's parts counted in the container
+    lift: LiftCheckRecord | None = None  # a lift's rise
+
+
+class TaskTruthRecord(Section):
+    """What the task itself asks, judged from the simulator: a sweep's parts inside the container's floor, an
+    object lifted clear of everything but the fingers, a support left empty with the object on the table."""
+
+    action: str  # sweep, lift, take_off
+    done: bool  # the task is done by the simulator's measure
+    detail: str
+    parts_inside: int | None = None  # sweep
+    parts_total: int | None = None
+    lifted_m: float | None = None  # lift, take_off: how far the object's lowest point is above the table
+    touching: list[str] = Field(default_factory=list)  # what the object touches (besides the fingers)
 
 
 class SimTruthRecord(Section):
@@ -173,6 +206,7 @@ class SimTruthRecord(Section):
     target_tilt_error_deg: float | None = (
         None  # ... and tipped from the goal's pose (a turn about the vertical is none)
     )
+    task: TaskTruthRecord | None = None  # the truth of a sweep, a lift or a take-off
 
 
 class TransitionRecord(Section):

@@ -11,8 +11,10 @@ from pipeline.grounding.compare import compare, rotation_deg
 from pipeline.perception.features import FeatureExtractor
 from pipeline.perception.segmenter import Detection, Segmenter
 from pipeline.reasoning.checks import like_the_target
+from runtime.run.contact import instruction_action
 from runtime.run.context import RunContext
 from runtime.run.summary import AchievedRecord, MotionRecord, Verification
+from runtime.run.verify_task import verify_group, verify_lift
 
 CAMERA_STILL_MM, CAMERA_STILL_DEG = 2.0, 0.2  # verification needs both captures from one camera pose
 
@@ -41,6 +43,10 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
             reason=f"the camera moved {moved_mm:.0f} mm / {moved_deg:.1f} deg between the captures: verification "
             "compares two views from one pose (a camera on the arm must capture again where it first did)",
         )
+    if goal.group_size is not None:  # several parts swept into a container: counted there
+        return verify_group(ctx, after, segmenter)
+    if instruction_action(ctx.instruction) == "lift":  # held in the fingers: lifted clear, where the goal puts it
+        return verify_lift(ctx, after, segmenter)
     detections = find_target_again(segmenter, after.rgb, goal.target, before.rgb, goal.mask_init)
     if len(detections) != 1:
         return Verification(ok=False, reason=f"target '{goal.target}' found {len(detections)} times after execution")

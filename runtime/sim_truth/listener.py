@@ -1,7 +1,8 @@
 """The simulator's truth of a run, recorded beside verification's own measurement so benches and tests can check
 it: where every object is at the run's two captures (an object's centre is the mean of its shapes' centres, on
 the axis of a body of revolution, so an unseen turn about that axis does not move it), how the moved object is
-turned against the goal (up to the turns its shape does not show) and each hinge's angle.
+turned against the goal (up to the turns its shape does not show) and each hinge's angle; for a sweep, a lift or
+a take-off, whether the task is done as the task defines it (tasks.py).
 
 Attach it to the stages (PipelineStages(listeners=[SimTruth()])) on the sim only; it never decides a run.
 """
@@ -17,8 +18,10 @@ from scipy.spatial.transform import Rotation
 from drivers.sim.gl import mujoco
 from drivers.sim.scene import SceneObject
 from drivers.sim.world import SimWorld
+from pipeline.reasoning.instruction import parse_instruction
 from runtime.run.context import RunContext
 from runtime.run.summary import SimTruthRecord
+from runtime.sim_truth.tasks import task_truth
 
 SAME_SIZE_M = 0.005  # box sides this close are the same: a turn swapping them does not show
 
@@ -123,6 +126,12 @@ class SimTruth:
         state = world_state(world)
         if name == "after":
             objects = {o.name: o for o in world.scene.objects}
-            ctx.record.summary.sim_truth = truth_of(ctx, before=self._states[ctx.basis], after=state, objects=objects)
+            truth = truth_of(ctx, before=self._states[ctx.basis], after=state, objects=objects)
+            try:
+                instr = parse_instruction(ctx.instruction)
+            except ValueError:
+                instr = None
+            task = task_truth(world, instr) if instr is not None else None
+            ctx.record.summary.sim_truth = truth.model_copy(update={"task": task}) if task else truth
         else:
             self._states[name] = state

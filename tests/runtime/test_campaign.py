@@ -15,7 +15,7 @@ from runtime.campaign.cases import GENERATED, GENERATED_ALL, TASKS, Case, expand
 from runtime.campaign.results import RESULT_FILE, CampaignTable, CaseResult, is_load_fault
 from runtime.campaign.truth import judge
 from runtime.campaign.worker import unpack
-from runtime.run.summary import RunSummary, SimTruthRecord, TransitionRecord
+from runtime.run.summary import RunSummary, SimTruthRecord, TaskTruthRecord, TransitionRecord
 
 
 def case(task="tabletop", seed=0, trial=0, **kw) -> Case:
@@ -77,6 +77,18 @@ def test_truth_judges_the_target_where_it_ended_not_the_verdict():
     shut = SimTruthRecord(object_displacement_m={}, hinge_deg={"box_hinge": 4.0})
     open_ = SimTruthRecord(object_displacement_m={}, hinge_deg={"box_hinge": 40.0})
     assert judge(lid, summary(truth=shut)) is True and judge(lid, summary("FAILED", "verifying", open_)) is False
+
+
+def test_the_sweep_lift_and_take_off_tasks_are_judged_by_their_own_truth():
+    for task in ("table_sweep", "pick_up", "take_off"):
+        c = case(task)
+        done = SimTruthRecord(
+            object_displacement_m={}, hinge_deg={}, task=TaskTruthRecord(action="sweep", done=True, detail="5 of 5")
+        )
+        short = done.model_copy(update={"task": TaskTruthRecord(action="sweep", done=False, detail="3 of 5")})
+        assert judge(c, summary(truth=done)) is True and judge(c, summary(truth=short)) is False
+        assert judge(c, summary(truth=SimTruthRecord(object_displacement_m={}, hinge_deg={}))) is False
+        assert judge(c, summary("FAILED", "planning")) is False
 
 
 def test_a_turn_and_a_stand_up_are_judged_by_the_shape_a_push_by_not_tipping():
@@ -218,3 +230,25 @@ def test_worker_processes_and_a_local_ray_instance_write_the_same_table(tmp_path
     finally:
         pool.close()
     assert again.ran_now == 0 and again.table.outcome() == processes.table.outcome()
+
+
+def test_a_stepped_campaigns_stages_step_the_runs_simulated_world():
+    from types import SimpleNamespace
+
+    from drivers.sim import SteppedClock
+    from runtime.campaign.worker import build_stages
+
+    world = object()
+    assert build_stages("pipeline").clock is None
+    for contact in ("pipeline", "oracle"):
+        clock = build_stages(contact, stepped=True).clock(SimpleNamespace(world=world))
+        assert isinstance(clock, SteppedClock) and clock.world is world
+
+
+@pytest.mark.slow
+def test_a_stepped_case_is_a_whole_run_judged_by_the_simulator(sim_config_path, tmp_path):
+    from runtime.campaign.worker import run_case
+
+    result = run_case(case("take_off", seed=5), sim_config_path, "c", tmp_path / "run", False, stepped=True)
+    assert result.verified and result.truly_done, result.reason
+    assert (tmp_path / "run" / RESULT_FILE).is_file()

@@ -115,6 +115,21 @@ def test_held_object_moves_with_the_tcp(robot):
     assert not w.in_collision(q)
 
 
+def test_a_held_tool_may_be_checked_with_its_own_smaller_margin(robot):
+    # a tool whose underside hangs 5 mm above the table: inside the robot's 10 mm padding, outside a 2 mm margin;
+    # the robot's own shapes keep the full padding, and a margin above the padding is refused
+    T = robot.tcp_pose(robot.home_q)
+    res = robot.ik(pose((T[0, 3], T[1, 3], 0.06)) @ np.diag([1.0, -1.0, -1.0, 1.0]), q_seed=robot.home_q)
+    assert res.success, res.reason
+    held = Primitive("held:brush", robot.tcp_frame, "box", (0.05, 0.12, 0.03), pose((0.0, 0.0, 0.06 - 0.005 - 0.015)))
+    padded = CollisionWorld(robot, held=held, gripper_width_m=0.02)
+    own = CollisionWorld(robot, held=held, gripper_width_m=0.02, held_padding_m=0.002)
+    assert any(c.first == "held:brush" and c.second == "table" for c in padded.check(res.q))
+    assert not own.in_collision(res.q) and own.copy().check(res.q) == []
+    with pytest.raises(ValueError, match="held_padding_m"):
+        CollisionWorld(robot, held=held, held_padding_m=0.05)
+
+
 def test_workspace_and_keep_out(robot):
     tcp = _tcp(robot, robot.home_q)
     narrow = SafetyConfig(workspace=BoxRegion(min_m=(-0.35, -0.7, -0.005), max_m=(0.3, 0.7, 1.2)))

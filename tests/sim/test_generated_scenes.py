@@ -20,7 +20,7 @@ from drivers.sim.generate import (
     scene_for,
     scene_yaml,
 )
-from drivers.sim.kinds import KINDS
+from drivers.sim.kinds import GENERATED_KINDS
 from drivers.sim.scene import SceneError, first_clash, load_scene
 from pipeline.reasoning.instruction import InstructionError, check_instruction
 
@@ -42,7 +42,7 @@ def test_scenes_cover_the_kinds_palette_sizes_and_counts(cases):
     kinds = Counter(o.kind for c in cases for o in c.scene.objects)
     colours = Counter(o.color for c in cases for o in c.scene.objects)
     counts = Counter(len(c.scene.objects) for c in cases)
-    assert set(kinds) == set(KINDS) and set(colours) == set(PALETTE)
+    assert set(kinds) == set(GENERATED_KINDS) and set(colours) == set(PALETTE)
     assert {"pink", "purple", "cyan", "dark_blue", "light_green"} <= set(colours) and "brown" not in colours
     assert set(counts) == {2, 3, 4, 5, 6, 7}
     bowls = [o.height_m for c in cases for o in c.scene.objects if o.kind == "bowl"]

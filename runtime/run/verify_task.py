@@ -1,0 +1,94 @@
+"""Verifying the tasks a rigid motion does not describe: a sweep's parts in the container, a lifted object.
+
+Sweep: the parts are segmented again in the after capture (the same phrase; touching parts are one region,
+counted by its area, pipeline.grounding.group), and each region is in the container when its centre lies over the
+container's floor as first seen. The run succeeds when at least REQUIRED_FRACTION of the parts seen at the start
+are inside; parts hidden behind the container's walls count as not inside (a failure is possible after a good
+sweep, never the reverse).
+
+Lift (the paper's "lifted clear"): the object is found again in the after capture, held in the fingers (which
+hide part of it, so registering it against its first view is unreliable); it is lifted when its lowest seen
+point rose at least LIFT_CLEAR_M and its seen centre is within the position tolerance of where the goal puts it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from drivers.types import RGBDFrame
+from pipeline.grounding.group import count_in_container
+from pipeline.perception.segmenter import Segmenter
+from runtime.run.context import RunContext
+from runtime.run.summary import GroupCountRecord, LiftCheckRecord, Verification
+from safety.geometry import transform_points
+
+REQUIRED_FRACTION = 0.8  # of the parts, inside the container (the paper's table sweeping: "swept into the dustpan")
+LIFT_CLEAR_M = 0.01  # a lifted object's lowest seen point rose at least this much
+
+
+def verify_group(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Verification:
+    before, goal = ctx.frame0, ctx.goal
+    if goal.mask_reference is None:
+        return Verification(ok=False, reason=f"no container was segmented for '{goal.target}': nothing to count in")
+    parts = [d.mask for d in segmenter.segment(after.rgb, goal.target)]
+    if parts:
+        ctx.record.image("mask_after", _union(parts))
+    count = count_in_container(
+        depth0=before.depth,
+        K0=before.intrinsics,
+        T_base_camera0=before.T_base_camera,
+        group0=goal.mask_init,
+        container0=goal.mask_reference,
+        depth1=after.depth,
+        K1=after.intrinsics,
+        T_base_camera1=after.T_base_camera,
+        parts1=parts,
+    )
+    need = math.ceil(REQUIRED_FRACTION * count.total - 1e-9)
+    ok = count.inside >= need
+    reason = (
+        f"{count.inside} of {count.total} {goal.target} in the {goal.reference} (need {need}); "
+        f"{count.outside} seen elsewhere, in {len(count.regions)} region(s)"
+    )
+    record = GroupCountRecord(total=count.total, inside=count.inside, outside=count.outside, required=need)
+    return Verification(ok=ok, reason=reason, group_count=record)
+
+
+def _union(masks):
+    out = masks[0].copy()
+    for m in masks[1:]:
+        out |= m
+    return out
+
+
+def _base_points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
+    valid = mask & np.isfinite(frame.depth)
+    return transform_points(frame.T_base_camera, frame.intrinsics.unproject_depth_image(frame.depth)[valid])
+
+
+def verify_lift(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Verification:
+    before, goal = ctx.frame0, ctx.goal
+    found = segmenter.segment(after.rgb, goal.target)
+    if len(found) != 1:
+        return Verification(ok=False, reason=f"target '{goal.target}' found {len(found)} times after execution")
+    ctx.record.image("mask_after", found[0].mask)
+    p0, p1 = _base_points(before, goal.mask_init), _base_points(after, found[0].mask)
+    if len(p0) < 10 or len(p1) < 10:
+        return Verification(ok=False, reason=f"too few points with depth: {len(p0)} before, {len(p1)} after")
+    T = ctx.motion.T_base
+    c0, c1 = p0.mean(axis=0), p1.mean(axis=0)
+    goal_centre = T[:3, :3] @ c0 + T[:3, 3]
+    error = float(np.linalg.norm(c1 - goal_centre))
+    rise = float(np.percentile(p1[:, 2], 2) - np.percentile(p0[:, 2], 2))
+    tol = ctx.profile.runtime.verify_position_tol_m
+    ok = rise >= LIFT_CLEAR_M and error <= tol
+    reason = (
+        f"lowest point {'rose' if rise >= 0 else 'fell'} {abs(rise) * 1000:.0f} mm (need {LIFT_CLEAR_M * 1000:.0f}), "
+        f"centre {error * 1000:.0f} mm from the goal (tolerance {tol * 1000:.0f})"
+    )
+    record = LiftCheckRecord(
+        lowest_rise_m=rise, centre_rise_m=float(c1[2] - c0[2]), goal_rise_m=float(goal_centre[2] - c0[2]), error_m=error
+    )
+    return Verification(ok=ok, reason=("lifted clear: " if ok else "not lifted as asked: ") + reason, lift=record)
