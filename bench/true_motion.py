@@ -1,12 +1,16 @@
 """The score main's grounding would give the true motion: ground()'s own preparation (goal depth aligned on the
-background, object views) and selection (ICP polish, view agreement times ICP fitness) with the true motion as the
-only hypothesis. ground() refuses below GroundingConfig.min_view_score, so the share of true motions under it is
-the share of right answers the refusal would throw away, whatever the search finds."""
+background, object views) and selection (ICP polish, view agreement times ICP fitness) with each of the true motion's
+twins under the true symmetry (the same goal image, e.g. a can spun about its axis) as its only hypothesis: the
+plain truth of a spun can carries the seen side out of view, so only its best twin says what a right answer
+scores. ground() refuses below GroundingConfig.min_view_score, so the share of true motions under it is the share
+of right answers the refusal would throw away, whatever the search finds."""
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
+from bench.pairgen.generate import TrueSymmetry
 from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
 from pipeline.grounding.ground import object_size
 from pipeline.grounding.select import select_motion
@@ -14,10 +18,34 @@ from pipeline.grounding.types import GroundingConfig, GroundingInput
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import chromaticity, make_view
 
+SPIN_STEP_DEG = 10.0  # twins of a body of revolution: turns about its axis this far apart
 
-def true_motion_agreement(inp: GroundingInput, T_true_camera: np.ndarray, cfg: GroundingConfig) -> float:
-    """View agreement (0..1) of the true motion x_goal = T x_init (camera frame); 0 when ground() would refuse
-    before scoring any motion (the goal depth does not fit the scene, too few object pixels)."""
+
+def true_twins(
+    T_true_camera: np.ndarray, truth: TrueSymmetry, R_camera_object0: np.ndarray, centre_camera: np.ndarray
+) -> list[Similarity]:
+    """The motions M g for the truth's turns g (object frame, about the object's centre), camera frame."""
+    if truth.ball:
+        turns = [np.eye(3), R_camera_object0.T @ T_true_camera[:3, :3].T @ R_camera_object0]  # the truth, a pure shift
+    elif truth.axis is not None:
+        a = truth.axis / np.linalg.norm(truth.axis)
+        spins = Rotation.from_rotvec(np.outer(np.radians(np.arange(0.0, 360.0, SPIN_STEP_DEG)), a)).as_matrix()
+        across = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        flip = Rotation.from_rotvec(np.pi * across / np.linalg.norm(across)).as_matrix()
+        turns = [*spins, *(flip @ S for S in spins)] if truth.flip else list(spins)
+    else:
+        turns = list(truth.rotations)
+    R_true, t_true = T_true_camera[:3, :3], T_true_camera[:3, 3]
+    out = []
+    for g in turns:
+        R = R_true @ R_camera_object0 @ g @ R_camera_object0.T
+        out.append(Similarity(1.0, R, R_true @ centre_camera + t_true - R @ centre_camera))
+    return out
+
+
+def true_motion_agreement(inp: GroundingInput, twins: list[Similarity], cfg: GroundingConfig) -> float:
+    """View agreement (0..1) ground() would give the best of the true motion's twins (true_twins); 0 when ground()
+    would refuse before scoring any motion (the goal depth does not fit the scene, too few object pixels)."""
     if cfg.work_width_px is not None and cfg.work_width_px < inp.intrinsics.width:
         inp = inp.resized(cfg.work_width_px)
     K = inp.intrinsics
@@ -39,6 +67,6 @@ def true_motion_agreement(inp: GroundingInput, T_true_camera: np.ndarray, cfg: G
     voxel = max(cfg.icp_voxel_m, size / 40)
     view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
     view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel)
-    truth = Similarity(1.0, T_true_camera[:3, :3], T_true_camera[:3, 3])
-    score, _ = select_motion([truth], view0, view1, K, size, cfg)
-    return float(score)
+    # each twin on its own: ground()'s coarse ranking keeps only a few, and a look-alike twin may push out the one
+    # that keeps the seen side in view
+    return max(float(select_motion([twin], view0, view1, K, size, cfg)[0]) for twin in twins)

@@ -118,3 +118,29 @@ def test_scoring_takes_out_the_true_symmetry_and_nothing_else():
     assert rotation_error_deg(flip, R_true, R0, bottle) == pytest.approx(180.0, abs=1e-4)
     assert rotation_error_deg(flip, R_true, R0, can) == pytest.approx(0.0, abs=1e-4)
     assert math.isnan(rotation_error_deg(R_est, R_true, R0, TrueSymmetry(np.eye(3)[None], ball=True)))
+
+
+def test_the_true_motions_twins_are_the_truth_modulo_its_symmetry():
+    """bench/true_motion.py scores the best twin of the truth: each must be as right as the truth itself (same
+    centre, zero rotation error modulo the symmetry) and, off the symmetry, different motions."""
+    from bench.true_motion import true_twins
+
+    R0 = Rotation.from_euler("xyz", [30, -20, 50], degrees=True).as_matrix()
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_euler("zy", [70, 40], degrees=True).as_matrix()
+    T[:3, 3] = [0.1, -0.05, 0.02]
+    centre = np.array([0.05, 0.02, 0.6])
+    goal_centre = T[:3, :3] @ centre + T[:3, 3]
+    for truth, n in (
+        (TrueSymmetry(CUBE_ROTATIONS), 24),
+        (TrueSymmetry(np.eye(3)[None], axis=np.array([0.0, 0.0, 1.0]), flip=True), 72),
+        (TrueSymmetry(np.eye(3)[None], ball=True), 2),
+    ):
+        twins = true_twins(T, truth, R0, centre)
+        assert len(twins) == n
+        for twin in twins:
+            np.testing.assert_allclose(twin.apply(centre[None])[0], goal_centre, atol=1e-9)
+            if not truth.ball:
+                assert rotation_error_deg(twin.R, T[:3, :3], R0, truth) == pytest.approx(0.0, abs=1e-4)
+        rotations = np.array([tw.R for tw in twins])
+        assert len({tuple(np.round(R, 6).ravel()) for R in rotations}) == n  # no twin twice
