@@ -83,13 +83,16 @@ def stats(values: list[float]) -> dict[str, float]:
     return {"median": float(np.median(v)), "p90": float(np.percentile(v, 90, method="higher")), "n": len(v)}
 
 
-def motion_kind(T: np.ndarray, T_base_camera: np.ndarray) -> str:
-    """slide, turn (in place) or tip, from the true motion (base frame)."""
-    Tb = T_base_camera @ T @ np.linalg.inv(T_base_camera)
-    tilt = math.degrees(math.acos(float(np.clip(Tb[2, 2], -1.0, 1.0))))
+def motion_kind(T: np.ndarray, T_base_camera: np.ndarray, centre: np.ndarray) -> str:
+    """slide, turn (in place: the object's centre moves under 2 cm across the table) or tip, from the true motion.
+    The shift is the centre's, not the base-frame motion's translation, which a turn far from the base's origin
+    makes large."""
+    R_base = T_base_camera[:3, :3]
+    tilt = math.degrees(math.acos(float(np.clip((R_base @ T[:3, :3] @ R_base.T)[2, 2], -1.0, 1.0))))
     if tilt > 15.0:
         return "tip"
-    return "turn" if np.linalg.norm(Tb[:2, 3]) < 0.02 else "slide"
+    shift = R_base @ (T[:3, :3] @ centre + T[:3, 3] - centre)
+    return "turn" if np.linalg.norm(shift[:2]) < 0.02 else "slide"
 
 
 # -- the two sets -------------------------------------------------------------------------------------------
@@ -165,7 +168,7 @@ def run_pair(entry: dict, features, config) -> dict:
     R0 = pair.T_camera_object0[:3, :3]
     rec = {
         "object_kind": entry["kind"],
-        "motion_kind": motion_kind(T, pair.T_base_camera),
+        "motion_kind": motion_kind(T, pair.T_base_camera, pair.centre_camera),
         "depth_kind": pair.depth1_kind,
         "true_symmetry": truth.label,
         "true_rotation_deg": _angle(T[:3, :3]),

@@ -144,3 +144,12 @@ def test_the_true_motions_twins_are_the_truth_modulo_its_symmetry():
                 assert rotation_error_deg(twin.R, T[:3, :3], R0, truth) == pytest.approx(0.0, abs=1e-4)
         rotations = np.array([tw.R for tw in twins])
         assert len({tuple(np.round(R, 6).ravel()) for R in rotations}) == n  # no twin twice
+
+
+def test_the_bench_tells_the_motion_kind_the_generator_made():
+    """A turn in place far from the base's origin is a turn (its centre stays), not a slide."""
+    from bench.grounding import motion_kind
+
+    for index in (1, 9, 17):  # a cylinder slid, turned in place, tipped
+        pair = make_pair(9001, index)
+        assert motion_kind(pair.T_motion_camera, pair.T_base_camera, pair.centre_camera) == pair.motion_kind
