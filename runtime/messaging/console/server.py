@@ -322,14 +322,15 @@ class ConsoleServer:
 
 
 def serve_console(cfg: RuntimeConfig, host: str, port: int, extra_hosts: frozenset[str] = frozenset()) -> None:
+    # Ctrl-C or a service manager's stop, taken by this thread alone: blocked here before any thread starts (threads
+    # inherit the mask, so the kernel cannot hand the signal to one of the bus's or the server's threads, where it
+    # would wait for this thread's next timeout) and received with sigwait, at once
+    stops = {signal.SIGINT, signal.SIGTERM}
+    signal.pthread_sigmask(signal.SIG_BLOCK, stops)
     server = ConsoleServer(cfg, host, port, extra_hosts)
     print(f"operator console on {server.url} (robot {cfg.robot_id}, runtime at {cfg.zenoh.endpoint}); Ctrl-C quits")
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):  # Ctrl-C, or a service manager's stop
-        signal.signal(sig, lambda *_: stop.set())
-    server.start()  # (the server runs on its own thread: a signal never lands inside it)
+    server.start()
     try:
-        while not stop.wait(1.0):
-            pass
+        signal.sigwait(stops)
     finally:
         server.close()
