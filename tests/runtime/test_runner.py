@@ -232,7 +232,10 @@ def test_in_process_estop_refused_on_hardware(sim_config_path):
 def test_terminal_prompt_sees_the_plan_and_decides(session, tmp_path, answer):
     asked = []
     stages = ScriptedStages()
-    rt, _ = session(stages, confirm="prompt", prompt=lambda plan: asked.append(plan.plan_id) or answer)
+    # the prompt is under test, not the deadman (tests/runtime/test_supervisor.py): late in a long test process the
+    # in-process heartbeat thread has been held off for 0.5 s, which the 0.2 s deadman rightly stops
+    runtime = {"deadman_timeout_s": 1.0}
+    rt, _ = session(stages, confirm="prompt", runtime=runtime, prompt=lambda plan: asked.append(plan.plan_id) or answer)
     result = rt.run("x", tmp_path / "run")
     assert asked == [result.summary.plan.plan_id]
     if answer:
