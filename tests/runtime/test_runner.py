@@ -249,7 +249,9 @@ def test_stalled_driver_call_cannot_hold_the_run(session, tmp_path):
     """A servo call that blocks for 3 s: the executing budget ends the run and the arm is stopped meanwhile."""
     stages = ScriptedStages(move_speed_rad_s=0.12)
     rt, devices = session(
-        stages, runtime={"budgets_s": {"executing": 1.0}}, faults={"servo_stall_at_s": 0.0, "servo_stall_s": 3.0}
+        stages,
+        runtime={"budgets_s": {"executing": 1.0}, "deadman_timeout_s": 1.0},  # the budget under test, not the deadman
+        faults={"servo_stall_at_s": 0.0, "servo_stall_s": 3.0},
     )
     t0 = time.monotonic()
     result = rt.run("x", tmp_path / "run")
