@@ -12,7 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
-from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
+from pipeline.grounding.depth_align import DepthAlignment, DepthAlignmentError, fit_depth_alignment
 from pipeline.grounding.hypotheses import face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.select import select_motion
@@ -34,6 +34,28 @@ def refuse(reason: str, **fields) -> ObjectMotion:
     return ObjectMotion(ok=False, reason=reason, **fields)
 
 
+def align_goal_depth(
+    inp: GroundingInput, cfg: GroundingConfig, T_base_camera: np.ndarray | None = None, what: str = ""
+) -> tuple[np.ndarray, np.ndarray, DepthAlignment] | ObjectMotion:
+    """(the capture's depth with holes as NaN, the goal depth aligned to it on the background, the alignment), or
+    the refusal when the goal depth does not fit the scene; `what` prefixes the reason."""
+    depth0 = np.where(np.isfinite(inp.depth0) & (inp.depth0 > 0), inp.depth0, np.nan).astype(np.float32)
+    background = ~(inp.mask0 | inp.mask1)
+    try:
+        align = fit_depth_alignment(depth0, inp.depth1, background, inp.depth1_kind, seed=cfg.seed)
+    except DepthAlignmentError as e:
+        return refuse(f"{what}depth alignment failed: {e}")
+    if align.inlier_fraction < cfg.min_background_inliers or align.residual_m > cfg.max_depth_residual_m:
+        return refuse(
+            f"{what}goal depth does not fit the scene: background residual {align.residual_m * 1000:.1f} mm "
+            f"(limit {cfg.max_depth_residual_m * 1000:.0f}), inliers {align.inlier_fraction:.0%} "
+            f"(need {cfg.min_background_inliers:.0%})",
+            depth_residual_m=align.residual_m,
+            T_base_camera=T_base_camera,
+        )
+    return depth0, align.apply(inp.depth1), align
+
+
 def ground(
     inp: GroundingInput,
     features: FeatureExtractor,
@@ -45,21 +67,12 @@ def ground(
     if cfg.work_width_px is not None and cfg.work_width_px < inp.intrinsics.width:
         inp = inp.resized(cfg.work_width_px)
     K = inp.intrinsics
-    depth0 = np.where(np.isfinite(inp.depth0) & (inp.depth0 > 0), inp.depth0, np.nan).astype(np.float32)
+    aligned = align_goal_depth(inp, cfg, T_base_camera)
+    if isinstance(aligned, ObjectMotion):
+        return aligned
+    depth0, depth1, align = aligned
     background = ~(inp.mask0 | inp.mask1)
-    try:
-        align = fit_depth_alignment(depth0, inp.depth1, background, inp.depth1_kind, seed=cfg.seed)
-    except DepthAlignmentError as e:
-        return refuse(f"depth alignment failed: {e}")
     common = {"depth_residual_m": align.residual_m, "T_base_camera": T_base_camera}
-    if align.inlier_fraction < cfg.min_background_inliers or align.residual_m > cfg.max_depth_residual_m:
-        return refuse(
-            f"goal depth does not fit the scene: background residual {align.residual_m * 1000:.1f} mm "
-            f"(limit {cfg.max_depth_residual_m * 1000:.0f}), inliers {align.inlier_fraction:.0%} "
-            f"(need {cfg.min_background_inliers:.0%})",
-            **common,
-        )
-    depth1 = align.apply(inp.depth1)
     points0, points1 = K.unproject_depth_image(depth0), K.unproject_depth_image(depth1)
     valid0, valid1 = inp.mask0 & np.isfinite(depth0), inp.mask1 & np.isfinite(depth1)
     if valid0.sum() < cfg.min_inliers or valid1.sum() < cfg.min_inliers:

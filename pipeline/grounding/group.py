@@ -17,8 +17,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
 from drivers.types import CameraIntrinsics
-from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
-from pipeline.grounding.ground import object_size, refuse
+from pipeline.grounding.ground import align_goal_depth, object_size, refuse
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from safety.geometry import transform_points
 
@@ -54,20 +53,11 @@ def ground_group(
     """The group's centroid motion (x_goal = x_init + t, camera frame) or a refusal with its reason."""
     cfg = config or GroundingConfig()
     K = inp.intrinsics
-    depth0 = np.where(np.isfinite(inp.depth0) & (inp.depth0 > 0), inp.depth0, np.nan).astype(np.float32)
-    background = ~(inp.mask0 | inp.mask1)
-    try:
-        align = fit_depth_alignment(depth0, inp.depth1, background, inp.depth1_kind, seed=cfg.seed)
-    except DepthAlignmentError as e:
-        return refuse(f"group: depth alignment failed: {e}")
+    aligned = align_goal_depth(inp, cfg, T_base_camera, "group: ")
+    if isinstance(aligned, ObjectMotion):
+        return aligned
+    depth0, depth1, align = aligned
     common = {"depth_residual_m": align.residual_m, "T_base_camera": T_base_camera}
-    if align.inlier_fraction < cfg.min_background_inliers or align.residual_m > cfg.max_depth_residual_m:
-        return refuse(
-            f"group: goal depth does not fit the scene: background residual {align.residual_m * 1000:.1f} mm "
-            f"(limit {cfg.max_depth_residual_m * 1000:.0f}), inliers {align.inlier_fraction:.0%}",
-            **common,
-        )
-    depth1 = align.apply(inp.depth1)
     valid0, valid1 = inp.mask0 & np.isfinite(depth0), inp.mask1 & np.isfinite(depth1)
     if valid0.sum() < MIN_GROUP_POINTS or valid1.sum() < MIN_GROUP_POINTS:
         return refuse(
