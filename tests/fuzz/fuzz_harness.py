@@ -1,10 +1,13 @@
 """Run one fuzz case in a process of its own, bounded in memory and time.
 
 Each case is forked from a forkserver that has the project's modules preloaded (a fork costs milliseconds, a fresh
-interpreter about a second). The child may grow its address space by at most CASE_MEMORY_BYTES beyond what it
-was forked with (RLIMIT_AS), so a regression that tries to allocate gigabytes fails that case with a
-MemoryError or a dead child instead of exhausting the machine; the parent kills a child that runs past its
-timeout. `run_cli` invokes the `goalvla` command line in such a child and returns what a user would see.
+interpreter about a second), torch and open3d included: the commands import them lazily, and mapping their
+libraries takes hundreds of MB of address space that says nothing about the input (under the limit below, a pair
+valid enough to reach feature matching died in torch's import with std::bad_alloc). The child may grow its
+address space by at most CASE_MEMORY_BYTES beyond what it was forked with (RLIMIT_AS), so a regression that tries
+to allocate gigabytes fails that case with a MemoryError or a dead child instead of exhausting the machine; the
+parent kills a child that runs past its timeout. `run_cli` invokes the `goalvla` command line in such a child and
+returns what a user would see.
 """
 
 from __future__ import annotations
@@ -26,6 +29,8 @@ _CTX.set_forkserver_preload(
         "safety.check_files",
         "safety.gate",
         "pipeline.grounding.pair_io",
+        "torch",
+        "open3d",
     ]
 )
 

@@ -95,6 +95,19 @@ def test_pair_file_that_is_a_directory_or_missing(tmp_path, sim_config_path):
     assert_refused(ground(sim_config_path, tmp_path / "missing.npz", out), "missing.npz", "No such file")
 
 
+def test_a_pair_that_reaches_feature_matching_is_answered_within_the_case_memory(tmp_path, sim_config_path):
+    """One hole in the goal disparity lets the small pair's depth fit through to feature matching, which imports
+    torch: found by the fuzzer as a case process killed by std::bad_alloc under the 1 GB bound."""
+    depth1 = small_pair()["depth1"].copy()
+    depth1[0, 6] = 0.0
+    pair, out = tmp_path / "pair.npz", tmp_path / "result.json"
+    pair.write_bytes(_with(depth1=depth1))
+    outcome = ground(sim_config_path, pair, out)
+    assert outcome.traceback is None, outcome.traceback
+    assert outcome.exit_code == 1 and "view agreement" in outcome.output, outcome.output
+    assert json.loads(out.read_text())["ok"] is False
+
+
 @st.composite
 def in_bounds_pairs(draw) -> dict[str, np.ndarray]:
     """Pairs every check in pair_io accepts, with contents drawn anywhere inside its bounds: what reaches the
