@@ -28,6 +28,7 @@ from runtime.devices import Devices
 from runtime.messaging.bus import Bus
 from runtime.messaging.messages import PlanSummary
 from runtime.run.context import RunContext, StageError, Stages
+from runtime.run.gc_pauses import collector_pauses_held_off
 from runtime.run.record import RunRecord, publish_image, to_bgr
 from runtime.run.summary import ConfirmationRecord, RunSummary
 from runtime.supervision.confirm import ConfirmGate
@@ -263,7 +264,8 @@ class Runtime:
             self.machine.advance(state)
         if state == State.EXECUTING:
             ctx.executing = True  # from here on, a run that ends badly must stop the motion
-        result = self._call(getattr(self.stages, name), ctx, name)
+        with collector_pauses_held_off() if state == State.EXECUTING else contextlib.nullcontext():
+            result = self._call(getattr(self.stages, name), ctx, name)
         if state == State.PLANNING:
             ctx.plan = result
 

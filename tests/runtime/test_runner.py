@@ -3,6 +3,7 @@ right state with the arm stopped and the reason recorded."""
 
 from __future__ import annotations
 
+import gc
 import json
 import threading
 import time
@@ -281,3 +282,27 @@ def test_an_estop_outlives_its_runtime_until_a_reset(session, tmp_path):
     rt2.reset("test")
     assert not latch.exists() and rt2.machine.state == State.IDLE
     assert rt2.run("move the arm", tmp_path / "after_reset").ok
+
+
+class FreezeWatchingStages(ScriptedStages):
+    """Records how many objects the garbage collector leaves alone in planning and in execution."""
+
+    def plan(self, ctx):
+        self.frozen_in_plan = gc.get_freeze_count()
+        return super().plan(ctx)
+
+    def execute(self, ctx):
+        self.frozen_in_execute = gc.get_freeze_count()
+        super().execute(ctx)
+
+
+def test_execution_runs_with_the_earlier_heap_out_of_the_collectors_walk(session, tmp_path):
+    """A full collection over a long-lived process's heap held every thread 0.2-0.6 s (the deadman tripped late in
+    the suite): while the arm moves the objects from before are frozen out of it, and handed back afterwards."""
+    stages = FreezeWatchingStages()
+    rt, _devices = session(stages)
+    result = rt.run("move the arm", tmp_path / "run")
+    assert result.ok, result.reason
+    assert stages.frozen_in_plan == 0
+    assert stages.frozen_in_execute > 10_000  # the interpreter's own objects alone are tens of thousands
+    assert gc.get_freeze_count() == 0
