@@ -18,8 +18,8 @@ A plural shape word ("the yellow screws") names every instance, and with a colou
 regions of that colour a few small parts make when they touch (a pile). A part word ("the lid of the blue box")
 names the lid of the named object: a region of another colour attached
 to it from above (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the
-box's region (faces are the pieces between the edges inside it). A chest seen open nowhere is the largest box
-of the colour (shut, it looks like a box, and outsizes a block of a paler shade beside it).
+box's region (faces are the pieces between the edges inside it). With no chest seen open, of several regions
+with a lid the largest is the chest (shut, it looks like a box, and outsizes a block of a paler shade beside it).
 Limits, by design of a no-model backend: brown is not separable from the wooden table, regions touching the
 image border are ignored (the floor, the robot base), touching objects of one colour and one saturation are one
 region, and a white scale has no plate of another shade to be told by.
@@ -176,24 +176,21 @@ class OfflineSegmenter(Segmenter):
         objects = _matching(candidates, want, self.min_shape_score)
         if want.plural and want.colour is not None:  # several small parts touching are one region: a pile
             objects += _piles(rgb, [i for i in candidates if all(i is not o for o in objects)], want)
-        seen_open = any(i.kind == "lidded_box" for i in objects)
-        if not seen_open and want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
-            # no chest seen open (nothing, or only the colour's other regions): a shut one looks like a box, the
-            # largest of that colour (a chest outsizes blocks)
+        if not objects and want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
             shut = ObjectPhrase(want.colour, want.shape, want.part, want.shade, SHUT_LOOKS_LIKE, want.plural)
-            boxes = [i for i in _matching(candidates, shut, self.min_shape_score) if i.kind in shut.kinds]
+            boxes = _matching(candidates, shut, self.min_shape_score)
             largest = max((i.region.area for i in boxes), default=0)
-            objects = [i for i in boxes if i.region.area >= CHEST_AREA_RATIO * largest] or objects
+            objects = [i for i in boxes if i.region.area >= CHEST_AREA_RATIO * largest]  # a chest outsizes blocks
         if want.part is None:
             return [_detection(i, want, i.region.mask) for i in objects]
-        if any(i.kind == "lidded_box" for i in objects):  # a lid is a chest's part: a box seen open has one,
+        seen_open = any(i.kind == "lidded_box" for i in objects)
+        if seen_open:  # a lid is a chest's part: a box seen open has one,
             objects = [i for i in objects if i.kind == "lidded_box"]  # a plain-looking box only when none is open
-        out = []
-        for whole in objects:
-            lid = _lid(rgb, whole, instances, want)
-            if lid is not None:
-                out.append(Detection(lid, _score(whole, want), box_of(lid), f"{want.part} of {_label(whole)}"))
-        return out
+        found = [(whole, lid) for whole in objects for lid in [_lid(rgb, whole, instances, want)] if lid is not None]
+        if not seen_open and len(found) > 1:  # shut chests look like boxes: of several with a lid, the chest
+            largest = max(whole.region.area for whole, _ in found)  # outsizes blocks of its colour
+            found = [(whole, lid) for whole, lid in found if whole.region.area >= CHEST_AREA_RATIO * largest]
+        return [Detection(lid, _score(w, want), box_of(lid), f"{want.part} of {_label(w)}") for w, lid in found]
 
     def instances(self, rgb: np.ndarray) -> list[Instance]:
         """Every colour region of the image with its kind."""
