@@ -110,6 +110,9 @@ class RuntimeConfig(StrictModel):
     )
     verify_position_tol_m: float = Field(default=0.03, gt=0, le=1.0, description="achieved vs goal object translation")
     verify_rotation_tol_deg: float = Field(default=15.0, gt=0, le=180, description="achieved vs goal object rotation")
+    verify_lid_shut_tol_deg: float = Field(
+        default=12.0, gt=0, le=90, description="close: the lid's seen face at most this far off the table's plane"
+    )
     rerun_recording: bool = Field(
         default=True, description="write run.rrd (a Rerun recording) into each run folder when the run has ended"
     )

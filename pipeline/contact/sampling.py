@@ -3,7 +3,10 @@
 Grasps: the fingers close along an axis y, the gripper approaches along z (straight down, or from the side
 toward the object from the robot). The object's width between the pads is measured on the cloud, and the
 antipodal quality is how well the surface normals at the two contact sides line up with y. One camera sees
-only part of an object, so a side with no observed surface counts as half quality instead of failing.
+only part of an object, so a side with no observed surface counts as half quality instead of failing. Pads
+closing at a slant on faces (a block's, a lying can's side) turn the object square to them as they squeeze, by
+the slant (a lying can grasped 15 deg off square was set down 15 deg over its goal turn), so each grasp from
+above is first turned about its approach axis square to the faces it closes on (_squared).
 Pushes: closed fingers placed behind the object, opposite the direction it must move, tips first (see
 push_candidates). Arc pushes on hinged
 parts: hinge.py.
@@ -25,6 +28,7 @@ SUPPORT_REACH_M = 0.04  # ... within this of its outline (the run's scene loses 
 SUPPORT_POINTS = 5  # ... when there are this many (the gate's cloud has a point per cm)
 SUPPORT_CELL_M = 0.01  # the gate sees a support as points, in cells this large
 TABLE_CLEAR_M = 0.002  # a push's padded fingertips this far above the table
+SQUARE_MIN_DEG = 1.0  # a grasp's closing axis this close to the faces' normals is square already
 
 
 @dataclass(frozen=True)
@@ -77,6 +81,34 @@ def _pinch(points: np.ndarray, normals: np.ndarray, T: np.ndarray) -> tuple[floa
     return float(hi - lo), float(np.mean(quality)), float(0.5 * (hi + lo))
 
 
+def _squared(points: np.ndarray, normals: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """T turned about its approach axis so the closing axis lies along the normal of the faces between the pads:
+    the weighted median direction, across the approach axis, of the contact sides' outward normals (the near
+    side's reversed; a point facing up or down weighs little), each folded to within 45 deg of the closing axis (a
+    face and those square to it are one choice: pads on a block's corner turn to the nearer pair of faces). T
+    itself when it is square already or the pads close on no seen side."""
+    local = (points - T[:3, 3]) @ T[:3, :3]
+    slab = (np.abs(local[:, 0]) < PAD_HALF_WIDTH_M) & (local[:, 2] > -PAD_LENGTH_M) & (local[:, 2] < 0.003)
+    if slab.sum() < 5:
+        return T
+    y, n = local[slab, 1], normals[slab] @ T[:3, :3]  # normals in the TCP frame
+    lo, hi = y.min(), y.max()
+    facing = np.concatenate([-n[y < lo + 0.004], n[y > hi - 0.004]])[:, :2]  # across the approach axis
+    weight = np.linalg.norm(facing, axis=1)
+    if weight.sum() < 1e-9:
+        return T
+    angle = (np.arctan2(-facing[:, 0], facing[:, 1]) + np.pi / 4) % (np.pi / 2) - np.pi / 4  # from TCP y
+    order = np.argsort(angle)
+    cumulative = np.cumsum(weight[order])
+    turn = float(angle[order][np.searchsorted(cumulative, 0.5 * cumulative[-1])])
+    if abs(turn) < np.radians(SQUARE_MIN_DEG):
+        return T
+    c, s = np.cos(turn), np.sin(turn)
+    out = T.copy()
+    out[:3, :3] = T[:3, :3] @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return out
+
+
 def support_height(points: np.ndarray, scene: np.ndarray) -> float:
     """Height [m] of a raised support the object stands on (a stand's board), from the scene points seen just
     around and under its outline and just below its lowest point; 0 for the table (its points are not in the
@@ -126,8 +158,14 @@ def grasp_candidates(
         c, s = np.cos(angle), np.sin(angle)
         z = np.array([c * toward[0] - s * toward[1], s * toward[0] + c * toward[1], 0.0])
         poses.append(frame(np.cross([0.0, 0.0, 1.0], z), z, np.array([centre_xy[0], centre_xy[1], side_height])))
-    out = []
+    poses = [_squared(points, normals, T) if T[2, 2] < -0.99 else T for T in poses]  # from above: squared
+    out, seen = [], set()
     for T in poses:
+        closing = np.degrees(np.arctan2(T[1, 1], T[0, 1])) % 180.0  # squared sweeps meet: one grasp each
+        key = (*np.round(T[:3, 3], 4), round(closing) % 180, round(T[2, 2], 2))
+        if key in seen:
+            continue
+        seen.add(key)
         pinch = _pinch(points, normals, T)
         if pinch is None:
             rejected["nothing between the fingers"] += 1

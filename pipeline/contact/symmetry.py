@@ -3,12 +3,14 @@
 A bottle, can or ball looks the same after any turn about its own axis, so the grounded motion's turn about that
 axis is not seen in the images: it is whatever the registration settled on, and a grasp carried by it may end in
 a wrist pose the arm cannot take while the same object goal, turned about its axis, is easy. The axis is found
-among the cloud's principal directions as the one whose slices across it are circles about one common line.
+among the cloud's principal directions as the one whose slices across it are circles about one common line. A
+body whose slices have one radius all along its middle (a can, not a bottle with its neck) also looks the same
+turned end for end.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -17,6 +19,9 @@ from safety.geometry import turn_about
 SLICE_M = 0.005  # slice thickness along the candidate axis
 TOLERANCE_REL = 0.02  # median distance off the fitted surface / object size (bottles ~0.005, boxes >= 0.027)
 MIN_POINTS = 50
+ENDS_ALIKE_REL = 0.1  # slices' radii within this share of their median all along: the ends look alike (a can) ...
+END_MARGIN_REL = 0.1  # ... over the middle of the seen length (an end's cap, a disc of smaller radii, left out) ...
+MIN_SLICE_POINTS = 5  # ... in slices of at least this many points
 
 
 @dataclass(frozen=True)
@@ -25,6 +30,7 @@ class RevolutionAxis:
     direction: np.ndarray  # unit vector along the axis
     radius_m: float  # median distance of the points from the axis
     residual_rel: float  # median distance off the fitted surface / object size
+    ends_alike: bool = False  # one radius all along (a can, not a bottle): turned end for end it looks the same
 
     def turn(self, angle_rad: float) -> np.ndarray:
         """4x4 rigid turn by angle_rad about this axis (base frame)."""
@@ -51,10 +57,7 @@ def turn_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
 
 def _fit(points: np.ndarray, axis: np.ndarray, size: float) -> RevolutionAxis:
     """Circles about one line along `axis`, one radius per slice: x^2 + y^2 = 2 x0 x + 2 y0 y + c_slice."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(axis, helper)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(axis, e1)
+    e1, e2 = _basis(axis)
     s = points @ axis
     uv = np.column_stack([points @ e1, points @ e2])
     labels, slice_of = np.unique(np.floor((s - s.min()) / SLICE_M).astype(int), return_inverse=True)
@@ -69,6 +72,54 @@ def _fit(points: np.ndarray, axis: np.ndarray, size: float) -> RevolutionAxis:
     return RevolutionAxis(point, axis, float(np.median(radius)), residual)
 
 
+def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(axis, e1)
+
+
+def _middle_slices(points: np.ndarray, axis: np.ndarray) -> list[np.ndarray]:
+    """The points of each SLICE_M slice across `axis` over the middle of the seen length (END_MARGIN_REL of it
+    left out at each end, where a cap's disc lies), each of at least MIN_SLICE_POINTS."""
+    s = points @ axis
+    margin = END_MARGIN_REL * (s.max() - s.min())
+    keep = (s >= s.min() + margin) & (s <= s.max() - margin)
+    index = np.floor((s - s.min()) / SLICE_M).astype(int)
+    slices = [points[keep & (index == k)] for k in np.unique(index[keep])]
+    return [p for p in slices if len(p) >= MIN_SLICE_POINTS]
+
+
+def _ends_alike(points: np.ndarray, axis: RevolutionAxis) -> bool:
+    """Whether the body has one radius all along the middle of its seen length (within ENDS_ALIKE_REL of the
+    median): no neck, no shoulder, nothing to tell one end from the other. The axis is first refined through the
+    centres of circles fitted to each slice (the principal direction of a short, wide can's seen half is a few
+    degrees off, which would read as a taper)."""
+    direction, point = axis.direction, axis.point
+    for _ in range(2):
+        e1, e2 = _basis(direction)
+        centres = []
+        for p in _middle_slices(points, direction):
+            uv = np.column_stack([p @ e1, p @ e2])
+            A = np.column_stack([2 * uv, np.ones(len(p))])
+            u0, v0, _ = np.linalg.lstsq(A, (uv**2).sum(axis=1), rcond=None)[0]
+            centres.append(u0 * e1 + v0 * e2 + float(np.mean(p @ direction)) * direction)
+        if len(centres) < 3:
+            return False
+        C = np.array(centres)
+        point = C.mean(axis=0)
+        refined = np.linalg.svd(C - point, full_matrices=False)[2][0]
+        direction = refined if refined @ direction > 0 else -refined
+    radii = []
+    for p in _middle_slices(points, direction):
+        off = p - point
+        radii.append(float(np.median(np.linalg.norm(off - np.outer(off @ direction, direction), axis=1))))
+    if len(radii) < 3:
+        return False
+    typical = float(np.median(radii))
+    return bool(np.max(np.abs(np.array(radii) - typical)) <= ENDS_ALIKE_REL * typical)
+
+
 def revolution_axis(points: np.ndarray) -> RevolutionAxis | None:
     """The axis of the body of revolution the points (N, 3) lie on, or None when they lie on none."""
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
@@ -79,4 +130,6 @@ def revolution_axis(points: np.ndarray) -> RevolutionAxis | None:
         return None
     directions = np.linalg.svd(P - P.mean(axis=0), full_matrices=False)[2]
     best = min((_fit(P, d, size) for d in directions), key=lambda f: f.residual_rel)
-    return best if best.residual_rel <= TOLERANCE_REL else None
+    if best.residual_rel > TOLERANCE_REL:
+        return None
+    return replace(best, ends_alike=_ends_alike(P, best))

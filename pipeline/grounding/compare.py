@@ -6,8 +6,10 @@ object's vertical axis is off) and twist (turn about the vertical), and each is 
 asks for that kind of rotation (at least INTENDED_DEG): the registration of a symmetric object (a cube, a
 cylinder) is free to pick any of its symmetric poses, so an unasked rotation is reported, never judged. A body of
 revolution (an upright can, a bottle) shows no turn about its own axis, so that turn is taken out first and its
-position is compared on the axis (the centroid of the seen side swings with the invisible turn); a ball shows no
-turn at all and is compared at its centre. Both are recognised from the initial points.
+position is compared on the axis (the centroid of the seen side swings with the invisible turn); one whose ends
+look alike (a can: one radius all along) shows no half turn end for end either (a can stood up on its other end
+is stood up), so the smaller of the two errors counts; a ball shows no turn at all and is compared at its
+centre. All are recognised from the initial points.
 """
 
 from __future__ import annotations
@@ -46,6 +48,7 @@ class Symmetry:
 
     centre: np.ndarray
     axis: np.ndarray | None
+    ends_alike: bool = False  # a body of revolution that looks the same turned end for end (a can)
 
 
 def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
@@ -59,7 +62,7 @@ def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
     off = float(np.median(np.abs(radius - np.median(radius))))
     if off <= TOLERANCE_REL * float(np.linalg.norm(np.ptp(P, axis=0))):
         return Symmetry(centre, None)
-    return Symmetry(axis.point, axis.direction)
+    return Symmetry(axis.point, axis.direction, axis.ends_alike)
 
 
 def without_turn_about(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
@@ -70,6 +73,13 @@ def without_turn_about(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
     norm = np.linalg.norm(twist)
     twist = twist / norm if norm > 1e-12 else np.array([0.0, 0.0, 0.0, 1.0])
     return (Rotation.from_quat([x, y, z, w]) * Rotation.from_quat(twist).inv()).as_matrix()
+
+
+def half_turn_across(axis: np.ndarray) -> np.ndarray:
+    """A half turn about a line square to `axis` (which one does not matter once turns about `axis` are out)."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    across = np.cross(axis, helper)
+    return Rotation.from_rotvec(np.pi * across / np.linalg.norm(across)).as_matrix()
 
 
 def object_centre(points_camera: np.ndarray) -> np.ndarray:
@@ -95,7 +105,7 @@ class Comparison(BaseModel):
     tilt_error_deg: float
     twist_judged: bool
     tilt_judged: bool
-    symmetry: Literal["none", "ball", "revolution"]
+    symmetry: Literal["none", "ball", "revolution", "revolution_ends_alike"]
     position_tol_m: float
     rotation_tol_deg: float
 
@@ -123,7 +133,8 @@ def compare(
     goal_twist, goal_tilt = twist_tilt_deg(to_base(goal_R))
     R_error = goal_R.T @ achieved_R  # acts on the object as first seen, where the symmetry axis was found
     if symmetry is not None and symmetry.axis is not None:
-        R_error = without_turn_about(R_error, symmetry.axis)
+        seen_alike = [R_error, R_error @ half_turn_across(symmetry.axis)] if symmetry.ends_alike else [R_error]
+        R_error = min((without_turn_about(R, symmetry.axis) for R in seen_alike), key=rotation_deg)
     twist_error, tilt_error = twist_tilt_deg(to_base(R_error))
     turns_seen = symmetry is None or symmetry.axis is not None  # no turn of a ball shows
     judge_twist, judge_tilt = turns_seen and goal_twist >= INTENDED_DEG, turns_seen and goal_tilt >= INTENDED_DEG
@@ -154,7 +165,15 @@ def compare(
         tilt_error_deg=tilt_error,
         twist_judged=judge_twist,
         tilt_judged=judge_tilt,
-        symmetry="none" if symmetry is None else ("ball" if symmetry.axis is None else "revolution"),
+        symmetry=_symmetry_name(symmetry),
         position_tol_m=position_tol_m,
         rotation_tol_deg=rotation_tol_deg,
     )
+
+
+def _symmetry_name(symmetry: Symmetry | None) -> str:
+    if symmetry is None:
+        return "none"
+    if symmetry.axis is None:
+        return "ball"
+    return "revolution_ends_alike" if symmetry.ends_alike else "revolution"

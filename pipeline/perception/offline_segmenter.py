@@ -18,7 +18,8 @@ A plural shape word ("the yellow screws") names every instance, and with a colou
 regions of that colour a few small parts make when they touch (a pile). A part word ("the lid of the blue box")
 names the lid of the named object: a region of another colour attached
 to it from above (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the
-box's region (faces are the pieces between the edges inside it).
+box's region (faces are the pieces between the edges inside it). With no chest seen open, of several regions
+with a lid the largest is the chest (shut, it looks like a box, and outsizes a block of a paler shade beside it).
 Limits, by design of a no-model backend: brown is not separable from the wooden table, regions touching the
 image border are ignored (the floor, the robot base), touching objects of one colour and one saturation are one
 region, and a white scale has no plate of another shade to be told by.
@@ -182,14 +183,14 @@ class OfflineSegmenter(Segmenter):
             objects = [i for i in boxes if i.region.area >= CHEST_AREA_RATIO * largest]  # a chest outsizes blocks
         if want.part is None:
             return [_detection(i, want, i.region.mask) for i in objects]
-        if any(i.kind == "lidded_box" for i in objects):  # a lid is a chest's part: a box seen open has one,
+        seen_open = any(i.kind == "lidded_box" for i in objects)
+        if seen_open:  # a lid is a chest's part: a box seen open has one,
             objects = [i for i in objects if i.kind == "lidded_box"]  # a plain-looking box only when none is open
-        out = []
-        for whole in objects:
-            lid = _lid(rgb, whole, instances, want)
-            if lid is not None:
-                out.append(Detection(lid, _score(whole, want), box_of(lid), f"{want.part} of {_label(whole)}"))
-        return out
+        found = [(whole, lid) for whole in objects for lid in [_lid(rgb, whole, instances, want)] if lid is not None]
+        if not seen_open and len(found) > 1:  # shut chests look like boxes: of several with a lid, the chest
+            largest = max(whole.region.area for whole, _ in found)  # outsizes blocks of its colour
+            found = [(whole, lid) for whole, lid in found if whole.region.area >= CHEST_AREA_RATIO * largest]
+        return [Detection(lid, _score(w, want), box_of(lid), f"{want.part} of {_label(w)}") for w, lid in found]
 
     def instances(self, rgb: np.ndarray) -> list[Instance]:
         """Every colour region of the image with its kind."""

@@ -178,6 +178,7 @@ class Verification(Section):
     comparison: Comparison | None = None  # absent when no achieved motion could be compared
     group_count: GroupCountRecord | None = None  # a sweep's parts counted in the container
     lift: LiftCheckRecord | None = None  # a lift's rise
+    lid_tilt_deg: float | None = None  # a close: the lid's seen face off the table's plane after execution
 
 
 class TaskTruthRecord(Section):

@@ -1,5 +1,6 @@
 """The verification stage: capture again from the same camera pose, find the target, measure how it really moved
-(pipeline.grounding.achieved) and compare that with the goal's motion (pipeline.grounding.compare)."""
+(pipeline.grounding.achieved) and compare that with the goal's motion (pipeline.grounding.compare); a closed lid
+must also lie flat (pipeline.grounding.lid: the goal's own error would otherwise let a lid pass half open)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ import numpy as np
 
 from drivers.types import RGBDFrame
 from pipeline.grounding.achieved import measure_achieved
-from pipeline.grounding.compare import compare, rotation_deg
+from pipeline.grounding.compare import Comparison, compare, rotation_deg
+from pipeline.grounding.lid import face_tilt_deg
 from pipeline.perception.features import FeatureExtractor
 from pipeline.perception.segmenter import Detection, Segmenter
 from pipeline.reasoning.checks import like_the_target
@@ -80,4 +82,23 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         rotation_tol_deg=cfg.verify_rotation_tol_deg,
         symmetry=achieved.symmetry,
     )
-    return Verification(ok=comparison.ok, reason=comparison.reason, comparison=comparison)
+    if not comparison.ok or instruction_action(ctx.instruction) != "close":
+        return Verification(ok=comparison.ok, reason=comparison.reason, comparison=comparison)
+    return lid_shut(after, mask_after, comparison, cfg.verify_lid_shut_tol_deg)
+
+
+def lid_shut(after: RGBDFrame, mask_lid: np.ndarray, comparison: Comparison, tol_deg: float) -> Verification:
+    """A close that matched its goal: verified only if the lid's seen face lies within tol_deg of the table's
+    plane (shut), measured on the capture after execution."""
+    T = after.T_base_camera
+    points = after.intrinsics.unproject_depth_image(after.depth)[mask_lid & np.isfinite(after.depth)]
+    tilt = face_tilt_deg(points @ T[:3, :3].T + T[:3, 3])
+    if tilt is None:
+        return Verification(
+            ok=False, reason="too few points of the lid to tell whether it is shut", comparison=comparison
+        )
+    if tilt > tol_deg:
+        reason = f"the lid is not shut: its face is {tilt:.0f} deg off the table's plane (at most {tol_deg:.0f})"
+        return Verification(ok=False, reason=reason, comparison=comparison, lid_tilt_deg=tilt)
+    reason = f"{comparison.reason}, lid shut within {tilt:.1f} deg"
+    return Verification(ok=True, reason=reason, comparison=comparison, lid_tilt_deg=tilt)

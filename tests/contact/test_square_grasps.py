@@ -1,0 +1,80 @@
+"""Grasps from above close square to the faces between the pads: a lying can or a block turned off the sweep's
+angles is not grasped at a slant (closing jaws turn the object square to them, by the slant: a lying can was set
+down 15 deg over its goal turn), and an upright can or a ball, square at any angle, keeps every angle."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.contact.sampling import grasp_candidates
+from pipeline.contact.types import ContactConfig
+
+MAX_WIDTH_M = 0.086
+
+
+def closing_deg(T: np.ndarray) -> float:
+    """The closing axis's direction in the table plane, deg in [0, 180)."""
+    return float(np.degrees(np.arctan2(T[1, 1], T[0, 1])) % 180.0)
+
+
+def off_deg(a: float, b: float, period: float) -> float:
+    d = (a - b) % period
+    return min(d, period - d)
+
+
+def lying_can(yaw_deg: float, radius=0.021, length=0.116, n=4000, seed=0) -> tuple[np.ndarray, np.ndarray]:
+    """Points and outward normals of a can lying on the table with its axis at yaw_deg, the half seen from above."""
+    rng = np.random.default_rng(seed)
+    along = rng.uniform(-length / 2, length / 2, n)
+    angle = rng.uniform(-np.pi / 2, np.pi / 2, n)  # from straight up, over the upper half
+    yaw = np.radians(yaw_deg)
+    axis, across = np.array([np.cos(yaw), np.sin(yaw), 0.0]), np.array([-np.sin(yaw), np.cos(yaw), 0.0])
+    normals = np.outer(np.sin(angle), across) + np.outer(np.cos(angle), [0.0, 0.0, 1.0])
+    points = np.array([0.45, 0.1, radius]) + np.outer(along, axis) + radius * normals
+    return points, normals
+
+
+def block(yaw_deg: float, size=(0.045, 0.05, 0.05), n=4000, seed=0) -> tuple[np.ndarray, np.ndarray]:
+    """Points and outward normals of a block's top and four sides, turned yaw_deg about the vertical."""
+    rng = np.random.default_rng(seed)
+    half = np.array(size) / 2
+    p = rng.uniform(-1, 1, (n, 3)) * half
+    face = rng.integers(0, 5, n)
+    normals = np.zeros((n, 3))
+    for k, (axis, sign) in enumerate(((2, 1), (0, 1), (0, -1), (1, 1), (1, -1))):
+        p[face == k, axis] = sign * half[axis]
+        normals[face == k, axis] = sign
+    c, s = np.cos(np.radians(yaw_deg)), np.sin(np.radians(yaw_deg))
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return p @ R.T + np.array([0.45, 0.1, half[2]]), normals @ R.T
+
+
+def from_above(points: np.ndarray, normals: np.ndarray) -> list[np.ndarray]:
+    found, _ = grasp_candidates(points, normals, ContactConfig(), MAX_WIDTH_M)
+    return [c.T_contact for c in found if c.T_contact[2, 2] < -0.99]
+
+
+@pytest.mark.parametrize("yaw_deg", [135.0, 127.0, 8.0])
+def test_a_lying_can_is_grasped_square_to_its_axis(yaw_deg):
+    grasps = from_above(*lying_can(yaw_deg))
+    assert grasps, "no grasp from above"
+    square = (yaw_deg + 90.0) % 180.0
+    assert max(off_deg(closing_deg(T), square, 180.0) for T in grasps) < 1.5
+
+
+@pytest.mark.parametrize("yaw_deg", [10.0, 37.0])
+def test_a_turned_block_is_grasped_square_to_its_faces(yaw_deg):
+    grasps = from_above(*block(yaw_deg))
+    assert grasps, "no grasp from above"
+    assert max(off_deg(closing_deg(T), yaw_deg, 90.0) for T in grasps) < 1.5
+
+
+def test_an_upright_can_keeps_every_angle_of_the_sweep():
+    rng = np.random.default_rng(1)
+    angle, z = rng.uniform(0, 2 * np.pi, 3000), rng.uniform(0, 0.09, 3000)
+    normals = np.column_stack([np.cos(angle), np.sin(angle), np.zeros_like(angle)])
+    points = np.array([0.45, 0.1, 0.0]) + np.column_stack([0.025 * normals[:, :2], z])
+    grasps = from_above(points, normals)
+    angles = sorted({round(closing_deg(T)) % 180 for T in grasps})
+    assert len(angles) >= 10  # the 12 angles of the sweep, each square to the round side (within its tolerance)
