@@ -37,6 +37,12 @@ KINDS = (
     "stand",
 )
 SPECK_AREA_FRAC = 8e-4  # a screw's region at most this share of the image (the smallest block is above 9e-4)
+PLATE_MAX_SATURATION = 0.06  # a scale's weighing plate is neutral light gray ...
+PLATE_MIN_VALUE = 0.4  # ... and not dark, in the light or in a shadow (where its value falls to about 0.55)
+# a neutral scale: its plate and its base are one neutral region, told apart from a white object by a base of a
+# darker shade: a white box's or chest's shaded faces keep at least 0.45 of its lit top's value in the sim's
+# light, a gray base under a light plate at most 0.35
+TWO_TONE_MAX_RATIO = 0.38
 RESEMBLES = 0.9  # a kind that only resembles an older one (dustpan, rack, stand) scores at most this
 
 
@@ -49,7 +55,8 @@ class Cues:
     corners: int  # vertices of the hull's polygon at 2 % of the perimeter
     end_width: float  # width near the narrower end / widest width, along the long axis
     edge_density: float  # edges inside the region per sqrt(area)
-    light_plate: float  # fraction of neutral light pixels (a scale's weighing plate)
+    light_plate: float  # fraction of neutral pixels, lit or shaded (a coloured scale's weighing plate)
+    shade_ratio: float  # value's 10th percentile over its 90th: the darkest faces against the brightest
     body_ellipse_iou: float  # ellipse_iou of the region opened by a disc a quarter of its width (thin parts cut)
     body_share: float  # the opened region's area / the region's
     area_frac: float  # the region's share of the image
@@ -81,7 +88,8 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
         corners=len(hull),
         end_width=_end_width(u, v),
         edge_density=float((edges & inner).sum() / max(np.sqrt(area), 1.0)),
-        light_plate=float(((sat[mask] < 0.06) & (val[mask] > 0.75)).mean()),
+        light_plate=float(((sat[mask] < PLATE_MAX_SATURATION) & (val[mask] > PLATE_MIN_VALUE)).mean()),
+        shade_ratio=float(np.percentile(val[mask], 10) / max(np.percentile(val[mask], 90), 1e-6)),
         **_body(m, np.ptp(u) + 1, np.ptp(v) + 1, area),
         area_frac=area / mask.size,
         wide_elongation=_wide_elongation(u, v),
@@ -143,13 +151,24 @@ def _within(x: float, lo: float, hi: float, margin: float) -> float:
     return float(np.clip(1.0 - max(lo - x, x - hi, 0.0) / margin, 0.0, 1.0))
 
 
+def _plate_on_top(c: Cues, colour: str) -> float:
+    """How much a region looks like a scale's light plate on its base: a coloured (or black) region holding a
+    neutral plate, or a white-named neutral region of two shades (a light plate on a darker gray base). A gray-named
+    region is dark all over (no light plate); a white scale has no plate of another shade to be told by."""
+    if colour == "gray":
+        return 0.0
+    if colour == "white":
+        return _within(c.shade_ratio, 0.0, TWO_TONE_MAX_RATIO, 0.06)
+    return _within(c.light_plate, 0.15, 1.0, 0.1)
+
+
 def scores(c: Cues, colour: str) -> dict[str, float]:
     """Score of each kind for a region with these cues and colour name."""
     inf = np.inf
     smooth = _within(c.edge_density, 0.0, 1.8, 0.8)  # no rim or inner walls inside
     hollow = _within(c.edge_density, 3.0, inf, 0.8)  # a rim and inner walls inside
     round_outline = _within(c.corners, 7.5, inf, 1.0)
-    plate_on_top = _within(c.light_plate, 0.15, 1.0, 0.1) if colour != "white" else 0.0
+    plate_on_top = _plate_on_top(c, colour)
     body = _within(c.end_width, 0.8, 1.0, 0.1)  # as wide at its ends as in its middle
     necked = _within(c.end_width, 0.0, 0.66, 0.1) * _within(c.end_width, 0.32, 1.0, 0.1)
     round_body = _within(c.body_ellipse_iou, 0.94, 1.0, 0.02)  # an ellipse once thin parts are cut off

@@ -161,3 +161,43 @@ def test_phrases_of_generated_scenes_find_exactly_their_object(sim_profile_with)
                 if not ok:
                     wrong.append(f"{seed} {phrase!r}: {matches(found)}")
     assert right >= 0.9 * total, f"{right}/{total}:\n" + "\n".join(wrong)
+
+
+def test_a_scale_is_told_by_its_plate_in_a_shadow_or_on_a_gray_base_and_white_boxes_are_no_scales(
+    sim_profile_with, tmp_path
+):
+    """A purple scale in the arm's shadow (its light plate reads gray there) and a gray scale (plate and base are
+    one neutral region of two shades) are scales; a white block and a white chest, open and shut, whose shaded
+    faces are a lighter shade of the same white, are not."""
+    objects = [
+        {"name": "purple_scale", "kind": "platform", "size_m": [0.106, 0.093, 0.021], "color": "purple"},
+        {"name": "gray_scale", "kind": "platform", "size_m": [0.12, 0.09, 0.03], "color": "gray"},
+        {"name": "block", "kind": "box", "size_m": [0.05, 0.05, 0.05], "color": "white"},
+        {"name": "chest", "kind": "lidded_box", "size_m": [0.12, 0.15, 0.06], "color": "white", "lid_open_deg": 95.0},
+    ]
+    places = [([0.33, -0.06], 97.0), ([0.6, -0.1], 30.0), ([0.45, -0.3], 10.0), ([0.5, 0.2], 0.0)]
+    for o, (xy, yaw) in zip(objects, places, strict=True):
+        o |= {"xy_m": xy, "yaw_deg": yaw}
+    path = tmp_path / "scales.yaml"
+    path.write_text(yaml.safe_dump({"name": "scales", "objects": objects, "randomise": {"xy_jitter_m": 0.0}}))
+    world, camera = view(sim_profile_with, str(path))
+    seg = OfflineSegmenter()
+    with camera:
+        for shut in (False, True):
+            if shut:
+                set_hinge(world, "chest_hinge", math.radians(0.5))
+            rgb, truth = camera.read().rgb, camera.object_masks()
+            scales = seg.segment(rgb, "the scale")
+            assert sorted(_named(scales, truth)) == ["gray_scale", "purple_scale"], (shut, matches(scales))
+            for phrase, name in (("the gray scale", "gray_scale"), ("the purple scale", "purple_scale")):
+                (scale,) = seg.segment(rgb, phrase)
+                assert iou(scale.mask, truth[name]) > 0.8, phrase
+            # open, the chest is a chest; shut, it looks like a box (so "box" names both): neither is a scale
+            boxes = _named(seg.segment(rgb, "the white box"), truth)
+            assert sorted(boxes) == ["block", "chest"], (shut, list(boxes))
+            assert all(iou(d.mask, truth[n]) > 0.8 for n, d in boxes.items()), shut
+
+
+def _named(detections: list, truth: dict[str, np.ndarray]) -> dict:
+    """Each detection by the name of the object it covers most."""
+    return {max(truth, key=lambda n: (truth[n] & d.mask).sum()): d for d in detections}
