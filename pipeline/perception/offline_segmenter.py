@@ -199,6 +199,8 @@ class OfflineSegmenter(Segmenter):
         h, s, v = hsv(rgb)
         for region in regions(rgb, min_area):
             kind, scores = classify(region.mask, rgb, region.colour)
+            if kind == "platform" and region.colour == "white":  # a light plate on a gray base (shape_cues): a
+                region = Region(region.mask, "gray")  # scale is named by its base, every scale's plate is light
             m = region.mask
             out.append(Instance(region, kind, scores, (h[m], s[m], v[m])))
         return out

@@ -167,15 +167,16 @@ def test_a_scale_is_told_by_its_plate_in_a_shadow_or_on_a_gray_base_and_white_bo
     sim_profile_with, tmp_path
 ):
     """A purple scale in the arm's shadow (its light plate reads gray there) and a gray scale (plate and base are
-    one neutral region of two shades) are scales; a white block and a white chest, open and shut, whose shaded
-    faces are a lighter shade of the same white, are not."""
+    one neutral region of two shades, named by its base: a gray ball beside it is no scale) are scales; a white
+    block and a white chest, open and shut, whose shaded faces are a lighter shade of the same white, are not."""
     objects = [
         {"name": "purple_scale", "kind": "platform", "size_m": [0.106, 0.093, 0.021], "color": "purple"},
         {"name": "gray_scale", "kind": "platform", "size_m": [0.12, 0.09, 0.03], "color": "gray"},
         {"name": "block", "kind": "box", "size_m": [0.05, 0.05, 0.05], "color": "white"},
         {"name": "chest", "kind": "lidded_box", "size_m": [0.12, 0.15, 0.06], "color": "white", "lid_open_deg": 95.0},
+        {"name": "ball", "kind": "sphere", "radius_m": 0.025, "color": "gray"},
     ]
-    places = [([0.33, -0.06], 97.0), ([0.6, -0.1], 30.0), ([0.45, -0.3], 10.0), ([0.5, 0.2], 0.0)]
+    places = [([0.33, -0.06], 97.0), ([0.6, -0.1], 30.0), ([0.45, -0.3], 10.0), ([0.5, 0.2], 0.0), ([0.38, 0.08], 0.0)]
     for o, (xy, yaw) in zip(objects, places, strict=True):
         o |= {"xy_m": xy, "yaw_deg": yaw}
     path = tmp_path / "scales.yaml"
