@@ -25,6 +25,13 @@ SUPPORT_REACH_M = 0.04  # ... within this of its outline (the run's scene loses 
 SUPPORT_POINTS = 5  # ... when there are this many (the gate's cloud has a point per cm)
 SUPPORT_CELL_M = 0.01  # the gate sees a support as points, in cells this large
 TABLE_CLEAR_M = 0.002  # a push's padded fingertips this far above the table
+# a grasp from above pinching the object this many times wider than the narrowest pinch at the same spot closes
+# across a flat part's slant (a plate standing in a rack cut at 60 deg): the part turns in the fingers or slips out
+SLANT_RATIO = 2.0
+# a part standing on a narrow edge (a plate in a rack: pinch width below THIN_RATIO of its height) leans a little
+# between the capture and the grasp, or when a finger brushes it: its top sways up to SWAY_RAD times its height
+THIN_RATIO = 0.2
+SWAY_RAD = 0.1
 
 
 @dataclass(frozen=True)
@@ -38,6 +45,7 @@ class Candidate:
     via: tuple[np.ndarray, ...] = ()  # TCP poses passed between contact and goal (an arc push)
     T_goal: np.ndarray | None = None  # None: T_contact carried by the object motion (rigid grasp or push)
     back_off: np.ndarray | None = None  # unit direction from contact to pre-contact (None: up the approach axis)
+    sway_m: float = 0.0  # grasp: how far the pinched part may sway sideways (the fingers open that much wider)
 
 
 def frame(y: np.ndarray, z: np.ndarray, origin: np.ndarray) -> np.ndarray:
@@ -96,12 +104,12 @@ def grasp_candidates(
     points: np.ndarray, normals: np.ndarray, cfg: ContactConfig, max_width_m: float, support_z: float = 0.0
 ) -> tuple[list[Candidate], dict[str, int]]:
     """support_z: the height of a raised support the object stands on (support_height), 0 on the table."""
-    rejected = {"too wide for the gripper": 0, "nothing between the fingers": 0}
+    rejected = {"too wide for the gripper": 0, "nothing between the fingers": 0, "across the object's slant": 0}
     centroid = points.mean(axis=0)
     size = float(np.linalg.norm(np.percentile(points, 95, axis=0) - np.percentile(points, 5, axis=0)))
     top = float(np.percentile(points[:, 2], 98))
     down = np.array([0.0, 0.0, -1.0])
-    poses = []
+    poses, spots = [], []  # spots: which top-grasp origin a pose is at (None from the side)
     # from above: closing axis swept in the horizontal plane, centred on the top surface (which one view sees
     # whole, unlike the sides) and, for elongated objects, also along the long axis
     upper = points[points[:, 2] > top - 0.01]
@@ -114,10 +122,11 @@ def grasp_candidates(
     # (support_z: a stand, seen as points in cells of up to SUPPORT_CELL_M by the gate)
     floor = cfg.min_tcp_height_m + (support_z + SUPPORT_CELL_M if support_z > 0.0 else 0.0)
     height = max(top - min(cfg.grasp_depth_m, 0.75 * (top - support_z)), floor)
-    for offset in offsets:
+    for spot, offset in enumerate(offsets):
         origin = np.array([*(centre_xy + offset * axes[0]), height])
         for yaw in np.radians(np.arange(0.0, 180.0, cfg.yaw_step_deg)):
             poses.append(frame(np.array([np.cos(yaw), np.sin(yaw), 0.0]), down, origin))
+            spots.append(spot)
     # from the side: horizontal approach from the robot's side, closing axis horizontal
     toward = np.array([centroid[0], centroid[1], 0.0])
     toward /= max(np.linalg.norm(toward), 1e-9)
@@ -126,13 +135,21 @@ def grasp_candidates(
         c, s = np.cos(angle), np.sin(angle)
         z = np.array([c * toward[0] - s * toward[1], s * toward[0] + c * toward[1], 0.0])
         poses.append(frame(np.cross([0.0, 0.0, 1.0], z), z, np.array([centre_xy[0], centre_xy[1], side_height])))
+        spots.append(None)
+    pinches = [_pinch(points, normals, T) for T in poses]
+    narrowest: dict[int, float] = {}
+    for spot, pinch in zip(spots, pinches, strict=True):
+        if spot is not None and pinch is not None:
+            narrowest[spot] = min(narrowest.get(spot, np.inf), pinch[0])
     out = []
-    for T in poses:
-        pinch = _pinch(points, normals, T)
+    for T, spot, pinch in zip(poses, spots, pinches, strict=True):
         if pinch is None:
             rejected["nothing between the fingers"] += 1
             continue
         width, antipodal, shift = pinch
+        if spot is not None and width > SLANT_RATIO * max(narrowest[spot], 0.01):
+            rejected["across the object's slant"] += 1
+            continue
         T = T.copy()
         T[:3, 3] += shift * T[:3, 1]
         if width + 2 * cfg.finger_clearance_m > max_width_m:
@@ -140,7 +157,9 @@ def grasp_candidates(
             continue
         approach = float(np.clip(T[:3, 2] @ down, 0.0, 1.0))
         centred = float(np.clip(1.0 - 2 * np.linalg.norm(T[:2, 3] - centre_xy) / max(size, 1e-6), 0.0, 1.0))
-        out.append(Candidate("grasp", T, width, antipodal, approach, centred))
+        tall = top - support_z
+        sway = SWAY_RAD * tall if spot is not None and width < THIN_RATIO * tall else 0.0
+        out.append(Candidate("grasp", T, width, antipodal, approach, centred, sway_m=sway))
     return out, rejected
 
 

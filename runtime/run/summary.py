@@ -172,12 +172,21 @@ class LiftCheckRecord(Section):
     error_m: float  # seen centre to the goal's
 
 
+class LaidCheckRecord(Section):
+    """A flat object laid on its face (let go on its edge to tip over): how it lies, against the goal."""
+
+    top_m: float  # its seen top above the table
+    thickness_m: float  # its thinnest extent as first seen
+    error_m: float  # seen centre to the goal's
+
+
 class Verification(Section):
     ok: bool
     reason: str
     comparison: Comparison | None = None  # absent when no achieved motion could be compared
     group_count: GroupCountRecord | None = None  # a sweep's parts counted in the container
     lift: LiftCheckRecord | None = None  # a lift's rise
+    laid: LaidCheckRecord | None = None  # a flat object laid on its face
 
 
 class TaskTruthRecord(Section):
