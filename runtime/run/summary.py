@@ -177,7 +177,7 @@ class LaidCheckRecord(Section):
 
     top_m: float  # its seen top above the table
     thickness_m: float  # its thinnest extent as first seen
-    error_m: float  # seen centre to the goal's
+    error_m: float  # seen middle to the goal's, across the table
 
 
 class Verification(Section):
