@@ -11,6 +11,7 @@ import pytest
 from motion.manipulation.phases import place_heights
 from pipeline.contact.planner import _open_width, plan_contacts
 from pipeline.contact.sampling import grasp_candidates
+from pipeline.contact.symmetry import ball_centre
 from pipeline.contact.tipping import LEAN_DEG, tip_turn
 from pipeline.contact.types import ContactConfig
 from safety.geometry import transform_points, turn_about
@@ -94,3 +95,17 @@ def test_planning_a_standing_plate_onto_the_table_lets_it_go_on_its_edge_from_ab
     assert np.allclose(plan.T_goal, plan.T_motion @ plan.T_contact)  # the goal is still the plate lying
     moved = transform_points(plan.T_motion, pts)
     assert abs(np.ptp(moved[:, 2]) - THICK) < 0.003  # lying flat at the goal
+
+
+def test_a_plate_seen_face_on_is_no_ball():
+    """A plate's face, bowed a little by depth noise, lies nearly on a large sphere: taken for a ball, its grounded
+    turn was dropped (a ball's turn shows nothing) and the plate was to be carried upright onto the table."""
+    rng = np.random.default_rng(0)
+    face = disc([0.45, 0.2, 0.082], [1.0, 0.0, 0.0])[: len(disc([0.45, 0.2, 0.082], [1.0, 0.0, 0.0])) // 2]
+    bow = 0.02 * ((face[:, 1] - 0.2) ** 2 + (face[:, 2] - 0.082) ** 2) / RADIUS**2  # 2 cm deep at the rim
+    face = face + np.column_stack([bow, np.zeros((len(face), 2))]) + rng.normal(0.0, 0.0005, face.shape)
+    assert ball_centre(face) is None
+    ball = rng.normal(size=(2000, 3))  # a ball's upper half still is one
+    ball[:, 2] = np.abs(ball[:, 2])
+    ball = np.array([0.45, 0.2, 0.05]) + 0.03 * ball / np.linalg.norm(ball, axis=1, keepdims=True)
+    assert ball_centre(ball) is not None
