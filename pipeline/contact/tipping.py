@@ -23,8 +23,9 @@ SIDEWAYS_COS = math.cos(math.radians(45.0))  # a gripper whose approach is furth
 
 def tip_turn(T_goal_tcp: np.ndarray, moved_points: np.ndarray) -> np.ndarray | None:
     """The turn (4x4, base frame) that stands the object, lying on its face at its goal (moved_points), up on the
-    edge opposite the grasp at T_goal_tcp, leaning LEAN_DEG towards the grasp; None when the gripper can set it
-    down as it lies (the gripper at the goal is not sideways, or the object is not flat and lying)."""
+    edge opposite the grasp at T_goal_tcp, on the table (z = 0), leaning LEAN_DEG towards the grasp; None when the
+    gripper can set it down as it lies (the gripper at the goal is not sideways, or the object is not flat and
+    lying)."""
     if -T_goal_tcp[2, 2] > SIDEWAYS_COS:
         return None
     pts = np.asarray(moved_points, dtype=np.float64).reshape(-1, 3)
@@ -39,4 +40,6 @@ def tip_turn(T_goal_tcp: np.ndarray, moved_points: np.ndarray) -> np.ndarray | N
     behind = -float(((pts[:, :2] - centre[:2]) @ towards).min())  # how far the far edge is from the middle
     edge = np.array([*(centre[:2] - behind * towards), float(pts[:, 2].min())])
     axis = np.array([towards[1], -towards[0], 0.0])  # turning about it by +angle raises the grasp side
-    return turn_about(edge, axis, math.radians(90.0 - LEAN_DEG))
+    T = turn_about(edge, axis, math.radians(90.0 - LEAN_DEG))
+    T[2, 3] -= edge[2]  # the edge on the table: lying, the object's height is the table's, not the grounded goal's
+    return T

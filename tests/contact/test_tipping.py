@@ -59,15 +59,15 @@ def test_a_standing_plate_is_grasped_across_its_thickness_opened_for_its_sway():
 
 
 def test_a_plate_laid_on_its_face_by_a_sideways_gripper_is_stood_on_its_far_edge_leaning_to_the_grasp():
-    lying = disc([0.5, 0.3, THICK / 2], [0.0, 0.0, 1.0])
+    lying = disc([0.5, 0.3, THICK / 2 + 0.02], [0.0, 0.0, 1.0])  # grounded 2 cm high
     T_goal = np.eye(4)  # approach along +x, at the rim on the -x side, closing axis vertical
     T_goal[:3, :3] = np.column_stack([np.cross([0, 0, 1.0], [1.0, 0, 0]), [0, 0, 1.0], [1.0, 0, 0]])
-    T_goal[:3, 3] = [0.5 - RADIUS + 0.03, 0.3, THICK / 2]
+    T_goal[:3, 3] = [0.5 - RADIUS + 0.03, 0.3, THICK / 2 + 0.02]
     tip = tip_turn(T_goal, lying)
     assert tip is not None
     stood = transform_points(tip, lying)
     lowest = stood[np.argmin(stood[:, 2])]
-    assert lowest[0] > 0.5 + RADIUS - 0.01 and abs(lowest[2]) < 1e-6  # on the edge opposite the grasp, at the table
+    assert lowest[0] > 0.5 + RADIUS - 0.01 and abs(lowest[2]) < 1e-6  # on the edge opposite the grasp, on the table
     assert math.degrees(math.acos(tip[2, 2])) == pytest.approx(90.0 - LEAN_DEG)  # its face LEAN_DEG off upright
     assert stood.mean(axis=0)[0] < lowest[0]  # leaning back over the grasp side: it falls onto where it lay
     T_set = tip @ T_goal
