@@ -44,10 +44,10 @@ from pipeline.contact.sampling import (
     support_height,
 )
 from pipeline.contact.symmetry import ball_centre, revolution_axis, turn_deg
-from pipeline.contact.tipping import tip_turn
+from pipeline.contact.tipping import flat_normal, tip_turn
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from safety.collision import CollisionWorld
-from safety.geometry import Primitive, transform_points
+from safety.geometry import Primitive, transform_points, turn_about
 from safety.ik import IKSettings
 from safety.robot_model import RobotModel
 
@@ -174,7 +174,8 @@ def plan_contacts(
 def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> list[np.ndarray]:
     """The object motion, then (a grasped body of revolution) the same goal turned about the body's own axis: by
     the turn that keeps the vertical most vertical (a top grasp stays upright), then in SPIN_DEG steps; for a
-    grasped ball only its centre's move (the registration's turn of a ball is arbitrary)."""
+    grasped ball only its centre's move (the registration's turn of a ball is arbitrary); for a flat part the
+    motion and its half turns (_flat_turns)."""
     if mode != "grasp":
         return [T_motion]
     centre = ball_centre(points)
@@ -184,11 +185,25 @@ def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> lis
         return [T]
     axis = revolution_axis(points)
     if axis is None:
-        return [T_motion]
+        return _flat_turns(points, T_motion)
     turns = np.radians(np.arange(-180.0, 180.0, UPRIGHT_STEP_DEG))
     upright = max(turns, key=lambda a: (T_motion @ axis.turn(a))[2, 2])
     spins = [T_motion @ axis.turn(a) for a in (upright, *np.radians(SPIN_DEG))]
     return [T_motion, *(M for M in spins if turn_deg(M, T_motion) > GROUNDED_TURN_DEG)]
+
+
+def _flat_turns(points: np.ndarray, T_motion: np.ndarray) -> list[np.ndarray]:
+    """A flat part (a plate, a board) looks the same after a half turn about its face's normal or about either
+    line across its face through its middle, so the registration may have settled on any of these: the motion
+    composed with each, the least turn first (a plate laid down by a half turn too many turns the wrist round
+    while the fingers hold it by its rim). Any other part: the motion alone."""
+    normal = flat_normal(points)
+    if normal is None:
+        return [T_motion]
+    middle = points.mean(axis=0)
+    across = np.linalg.svd(points - middle, full_matrices=False)[2][:2]
+    halves = [turn_about(middle, axis, np.pi) for axis in (normal, *across)]
+    return sorted([T_motion, *(T_motion @ H for H in halves)], key=lambda M: turn_deg(M, np.eye(4)))
 
 
 def _contact_reason(
@@ -491,14 +506,17 @@ def _turns_to_try(c: Candidate, motions: list[np.ndarray], robot: RobotModel) ->
 def _goal_ik(
     robot: RobotModel, T_goal: np.ndarray, lifts: tuple[float, ...], q_from: np.ndarray, accepts: _Acceptance
 ) -> tuple[list[tuple[np.ndarray, np.ndarray]], str]:
-    """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last; ([], why) if one
-    has none."""
+    """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last and drawn towards
+    the contact's joints q_from (not home): a solution on another branch of the arm makes the carry swing it
+    round, and what the fingers hold by friction alone (a plate by its rim) is flung out; ([], why) if one has
+    none."""
     out = []
     for lift in (0.0, *lifts):
         T = T_goal.copy()
         T[2, 3] += lift
         accept = accepts.of("goal" if not out else "place")
-        r = robot.ik(T, out[-1][1] if out else q_from, settings=GOAL_IK_SETTINGS, accept=accept)
+        seed = out[-1][1] if out else q_from
+        r = robot.ik(T, seed, preferred_q=q_from, settings=GOAL_IK_SETTINGS, accept=accept)
         if not r.success:
             what = "goal pose" if not out else "pose to let go from" if len(out) == 1 else "pose above the place"
             held = " with the object in the hand" if out and accept is not None else ""

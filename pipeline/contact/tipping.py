@@ -21,6 +21,15 @@ LYING_COS = 0.9  # ... and lies on its face when that thinnest direction is this
 SIDEWAYS_COS = math.cos(math.radians(45.0))  # a gripper whose approach is further than this from down holds it sideways
 
 
+def flat_normal(points: np.ndarray) -> np.ndarray | None:
+    """The normal of a flat object's faces (its cloud's thinnest direction), None when it is not flat."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(pts) < 3:
+        return None
+    _, sv, vt = np.linalg.svd(pts - pts.mean(axis=0), full_matrices=False)
+    return vt[2] if sv[2] < FLAT_RATIO * sv[1] else None
+
+
 def tip_turn(T_goal_tcp: np.ndarray, moved_points: np.ndarray) -> np.ndarray | None:
     """The turn (4x4, base frame) that stands the object, lying on its face at its goal (moved_points), up on the
     edge opposite the grasp at T_goal_tcp, on the table (z = 0), leaning LEAN_DEG towards the grasp; None when the
@@ -30,8 +39,8 @@ def tip_turn(T_goal_tcp: np.ndarray, moved_points: np.ndarray) -> np.ndarray | N
         return None
     pts = np.asarray(moved_points, dtype=np.float64).reshape(-1, 3)
     centre = pts.mean(axis=0)
-    _, sv, vt = np.linalg.svd(pts - centre, full_matrices=False)
-    if sv[2] >= FLAT_RATIO * sv[1] or abs(vt[2, 2]) < LYING_COS:
+    normal = flat_normal(pts)
+    if normal is None or abs(normal[2]) < LYING_COS:
         return None
     towards = T_goal_tcp[:2, 3] - centre[:2]  # from the middle to the grasp, on the table
     if np.linalg.norm(towards) < 1e-3:

@@ -11,7 +11,7 @@ import pytest
 from motion.manipulation.phases import place_heights
 from pipeline.contact.planner import _open_width, plan_contacts
 from pipeline.contact.sampling import grasp_candidates
-from pipeline.contact.symmetry import ball_centre
+from pipeline.contact.symmetry import ball_centre, turn_deg
 from pipeline.contact.tipping import LEAN_DEG, tip_turn
 from pipeline.contact.types import ContactConfig
 from safety.geometry import transform_points, turn_about
@@ -109,3 +109,22 @@ def test_a_plate_seen_face_on_is_no_ball():
     ball[:, 2] = np.abs(ball[:, 2])
     ball = np.array([0.45, 0.2, 0.05]) + 0.03 * ball / np.linalg.norm(ball, axis=1, keepdims=True)
     assert ball_centre(ball) is not None
+
+
+def test_a_plate_grounded_a_half_turn_off_is_carried_by_the_least_turn():
+    """A plate looks the same turned half about its normal: registered so, laying it down would turn the wrist
+    half round with the plate held by its rim; the plan lays it down by the quarter turn."""
+    robot = RobotModel()
+    centre, normal = np.array([0.45, 0.2, 0.082]), np.array([1.0, 0.0, 0.0])
+    pts = disc(centre, normal)
+    lay = turn_about(np.array([centre[0] - THICK / 2, centre[1], 0.012]), np.array([0.0, 1.0, 0.0]), -math.pi / 2)
+    shift = np.eye(4)
+    shift[:3, 3] = [0.0, 0.17, -0.012 + THICK / 2]
+    spun = shift @ lay @ turn_about(centre, normal, math.pi)  # the same plate on the table, a half turn more
+    assert turn_deg(spun, np.eye(4)) > 150
+    cfg = ContactConfig(place_lifts_m=place_heights(0.01), collision_padding_m=0.01)
+    result = plan_contacts(pts, np.zeros((0, 3)), spun, robot, config=cfg, viewpoint=np.array([1.1, 0.0, 0.8]))
+    assert result.ok, result.reason
+    assert all(turn_deg(p.T_motion, np.eye(4)) == pytest.approx(90.0, abs=1.0) for p in result.plans)
+    moved = transform_points(result.best.T_motion, pts)
+    np.testing.assert_allclose(moved.mean(axis=0), transform_points(spun, pts).mean(axis=0), atol=1e-6)
