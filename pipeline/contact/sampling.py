@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from pipeline.contact.tipping import flat_normal
 from pipeline.contact.types import ContactConfig, ContactMode
 
 PAD_HALF_WIDTH_M = 0.016  # half the finger pad's width (along the TCP x axis)
@@ -32,6 +33,7 @@ SLANT_RATIO = 2.0
 # between the capture and the grasp, or when a finger brushes it: its top sways up to SWAY_RAD times its height
 THIN_RATIO = 0.2
 SWAY_RAD = 0.1
+STANDING_COS = 0.5  # a flat part whose faces' normal is this close to horizontal stands on its edge
 
 
 @dataclass(frozen=True)
@@ -122,8 +124,16 @@ def grasp_candidates(
     # (support_z: a stand, seen as points in cells of up to SUPPORT_CELL_M by the gate)
     floor = cfg.min_tcp_height_m + (support_z + SUPPORT_CELL_M if support_z > 0.0 else 0.0)
     height = max(top - min(cfg.grasp_depth_m, 0.75 * (top - support_z)), floor)
+    # a flat part standing on its edge (a plate leaning in a rack) is pinched square to its faces, the approach down
+    # its own plane (straight down, a leaning plate lies across the pads and turns or slips out as they close)
+    normal = flat_normal(points)
+    standing = normal is not None and abs(normal[2]) < STANDING_COS
     for spot, offset in enumerate(offsets):
         origin = np.array([*(centre_xy + offset * axes[0]), height])
+        if standing:
+            poses.append(frame(normal, down - (down @ normal) * normal, origin))
+            spots.append(spot)
+            continue
         for yaw in np.radians(np.arange(0.0, 180.0, cfg.yaw_step_deg)):
             poses.append(frame(np.array([np.cos(yaw), np.sin(yaw), 0.0]), down, origin))
             spots.append(spot)

@@ -16,7 +16,8 @@ import numpy as np
 from safety.geometry import turn_about
 
 LEAN_DEG = 20.0  # off upright, towards the side it is to fall to (it falls that way, not back)
-FLAT_RATIO = 0.35  # a cloud whose thinnest extent is below this share of the next is flat (a plate, a board)
+FLAT_RATIO = 0.25  # a cloud whose thinnest extent is below this share of the next is flat (a plate seen: 0.06; the seen
+# half of a can or a cup: 0.4)
 LYING_COS = 0.9  # ... and lies on its face when that thinnest direction is this close to vertical
 SIDEWAYS_COS = math.cos(math.radians(45.0))  # a gripper whose approach is further than this from down holds it sideways
 

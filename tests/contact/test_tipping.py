@@ -39,23 +39,32 @@ def normals_of(points: np.ndarray, centre: np.ndarray, normal: np.ndarray) -> np
     return side * np.asarray(normal, float)[None, :]
 
 
-def test_a_standing_plate_is_grasped_across_its_thickness_opened_for_its_sway():
-    centre, normal = np.array([0.45, 0.2, 0.082]), np.array([1.0, 0.0, 0.0])
-    pts = disc(centre, normal)
+def test_a_standing_plate_is_grasped_square_to_its_faces_opened_for_its_sway():
+    cfg, robot = ContactConfig(), RobotModel()
+    for lean_deg in (0.0, 15.0):  # upright, and leaning on the rack's tines
+        lean = math.radians(lean_deg)
+        centre, normal = np.array([0.45, 0.2, 0.082]), np.array([math.cos(lean), 0.0, math.sin(lean)])
+        pts = disc(centre, normal)
+        candidates, _ = grasp_candidates(pts, normals_of(pts, centre, normal), cfg, 0.085)
+        top = [c for c in candidates if c.approach > 0.9]
+        assert top
+        for c in top:  # closing along the plate's normal, approaching down its plane: pinched across its thickness
+            assert abs(c.T_contact[:3, 1] @ normal) > 0.99 and abs(c.T_contact[:3, 2] @ normal) < 1e-6
+            assert c.object_width_m < 2 * THICK
+            assert c.sway_m > 0.01  # a 14 cm tall plate's top sways more than the fingers' clearance
+            assert _open_width(c, cfg, robot) >= c.object_width_m + 2 * (cfg.finger_clearance_m + 0.01)
+
+
+def test_a_top_grasp_across_a_narrow_blocks_slant_is_refused_and_a_block_does_not_sway():
     cfg = ContactConfig()
-    candidates, rejected = grasp_candidates(pts, normals_of(pts, centre, normal), cfg, 0.085)
+    g = np.linspace(0.0, 1.0, 15)
+    x, y, z = (a.ravel() for a in np.meshgrid(0.4 + 0.02 * g, 0.05 * g, 0.06 * g))
+    block = np.column_stack([x, y, z])  # 2 x 5 cm, 6 cm tall: not flat, not thin
+    candidates, rejected = grasp_candidates(block, np.tile([1.0, 0.0, 0.0], (len(block), 1)), cfg, 0.085)
     top = [c for c in candidates if c.approach > 0.99]
     assert top and rejected["across the object's slant"] > 0
-    for c in top:  # closing within 45 deg of the plate's normal, never across its face
-        assert abs(c.T_contact[:3, 1] @ normal) > math.cos(math.radians(45)), c.T_contact[:3, 1]
-    robot = RobotModel()
-    squarest = max(top, key=lambda c: abs(c.T_contact[:3, 1] @ normal))
-    assert squarest.sway_m > 0.01  # a 14 cm tall plate's top sways more than the fingers' clearance
-    assert _open_width(squarest, cfg, robot) >= squarest.object_width_m + 2 * (cfg.finger_clearance_m + 0.01)
-    # a block as tall as it is wide does not sway
-    block = np.array([[x, y, z] for x in (0.4, 0.45) for y in (0.0, 0.05) for z in np.linspace(0.0, 0.05, 12)])
-    blocks, _ = grasp_candidates(block, np.tile([1.0, 0, 0], (len(block), 1)), cfg, 0.085)
-    assert blocks and all(c.sway_m == 0.0 for c in blocks)
+    assert all(c.object_width_m <= 2 * min(t.object_width_m for t in top) for c in top)
+    assert all(c.sway_m == 0.0 for c in candidates)
 
 
 def test_a_plate_laid_on_its_face_by_a_sideways_gripper_is_stood_on_its_far_edge_leaning_to_the_grasp():
