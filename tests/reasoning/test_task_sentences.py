@@ -171,6 +171,14 @@ def test_the_plate_in_the_rack_is_laid_flat_beside_it_and_grounded_up_to_its_sym
     assert abs(np.linalg.svd(grounded - grounded.mean(axis=0), full_matrices=False)[2][2] @ up) > 0.95
 
 
+def test_the_plate_seen_through_the_racks_tines_is_a_plate(task_view):
+    """The tines cut notches into the plate's outline, which no longer fits an ellipse (it read as a box, so "take
+    the plate off the rack" matched nothing); with the notches closed it is a plate again."""
+    frame, masks, _ = task_view("take_off", 3)
+    found = OfflineSegmenter().segment(frame.rgb, "plate")
+    assert len(found) == 1 and _iou(found[0].mask, masks["plate"]) > 0.8
+
+
 def test_cloud_enhancement_names_a_group_and_a_tool(fake_server, task_view, monkeypatch, tmp_path):
     """Gemini names several targets and a tool: the reasoner takes every screw as the target, the brush as the
     tool, the dustpan as where they go (the candidate is the offline composition, served by the fake server)."""
