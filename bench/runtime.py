@@ -303,7 +303,9 @@ def main() -> None:
     parser.add_argument(
         "--generated-seeds", default="5000:5110", help="A:B, the generated cases' seeds (quick: the first 12)"
     )
-    parser.add_argument("--generated-workers", type=int, default=1, help="generated runs at a time")
+    parser.add_argument(
+        "--generated-workers", type=int, default=1, help="runs at a time in the generated and paper-task campaigns"
+    )
     parser.add_argument(
         "--task-seeds", default="900:920", help="A:B, the seeds of the sweep, pick-up and take-off runs (quick: 3)"
     )
