@@ -16,8 +16,8 @@
    Targets: >= 100 in-grammar cases over every action, >= 90 % of them verified and really done, no false success,
    <= 2 % false failures, median run <= 20 s. --stepped advances the physics by the executor's clock (a loaded
    machine cannot starve the simulated robot; the wall times then say nothing of real time).
-5. The paper's remaining tasks (table_sweep, pick_up, take_off; runtime.campaign.cases.TASKS) on every seed of
-   --task-seeds, stepped physics, judged by the simulator's truth of each task. Targets: verified and done in
+5. The paper's remaining tasks (table_sweep, pick_up, take_off: the block, take_off_plate; cases.TASKS) on every
+   seed of --task-seeds, stepped physics, judged by the simulator's truth of each task. Targets: verified and done in
    >= 70 % of sweeps (>= 80 % of the screws in the dustpan), >= 95 % of pick-ups, >= 90 % of take-offs; no false
    success.
 
@@ -59,7 +59,7 @@ TARGETS = {
 }
 MINIMUMS = {"generated_cases": 100, "generated_verified_and_done_share": 0.9}
 # the paper's remaining tasks (issue 18): share of runs verified and done by the simulator's truth, per task
-PAPER_TASKS = {"table_sweep": 0.7, "pick_up": 0.95, "take_off": 0.9}
+PAPER_TASKS = {"table_sweep": 0.7, "pick_up": 0.95, "take_off": 0.9, "take_off_plate": 0.9}
 PARTS = ("estop", "runs", "generated", "paper_tasks")
 # the named task scenes (runtime.campaign.cases.TASKS); a campaign of N runs takes N / len(TASKS) seeds of each
 TASKS = ("tabletop", "pick_place", "block_scale", "tomato_pan", "bottle_standup", "close_lid")
@@ -303,7 +303,9 @@ def main() -> None:
     parser.add_argument(
         "--generated-seeds", default="5000:5110", help="A:B, the generated cases' seeds (quick: the first 12)"
     )
-    parser.add_argument("--generated-workers", type=int, default=1, help="generated runs at a time")
+    parser.add_argument(
+        "--generated-workers", type=int, default=1, help="runs at a time in the generated and paper-task campaigns"
+    )
     parser.add_argument(
         "--task-seeds", default="900:920", help="A:B, the seeds of the sweep, pick-up and take-off runs (quick: 3)"
     )

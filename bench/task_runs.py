@@ -4,7 +4,8 @@ real command line, each run's verdict set against the simulator's truth of the t
 Tasks (scene, sentences; a seed picks the scene's layout and, for pick-up, which object):
   sweep     table_sweep  "sweep the screws into the dustpan"           done: >= 80 % of the screws over its floor
   pick up   pick_up      "pick up the red cup", ... one per object    done: touching only the fingers, >= 1 cm up
-  take off  take_off     "take the red block off the stand"           done: off the stand, resting on the table
+  take off  take_off     "take the red block off the stand",          done: off the stand (the rack), resting on
+                         "take the orange plate out of the dish rack"       the table (the seeds alternate)
 A run is a success when it exits 0 (verified); a false success is one the simulator's truth says is not done, a
 missed success one that failed although the truth says done. Use seeds you did not tune on for the figures.
 
@@ -49,7 +50,7 @@ PICK_UP = (
 TASKS = {
     "sweep": ("table_sweep", ("sweep the screws into the dustpan",)),
     "pick_up": ("pick_up", PICK_UP),
-    "take_off": ("take_off", ("take the red block off the stand",)),
+    "take_off": ("take_off", ("take the red block off the stand", "take the orange plate out of the dish rack")),
 }
 TARGETS = {"sweep": 0.7, "pick_up": 0.95, "take_off": 0.9, "false_successes": 0}
 
@@ -115,6 +116,17 @@ def run_case(task: str, seed: int, runs_dir: Path, profile: Path, stepped: bool)
     return out
 
 
+def tally(rs: list[dict]) -> dict:
+    """Runs, verified, done by the truth, false and missed successes of some runs."""
+    return {
+        "runs": len(rs),
+        "verified": sum(bool(r.get("verified")) for r in rs),
+        "done_truth": sum(bool(r.get("done_truth")) for r in rs),
+        "false_successes": sum(bool(r.get("verified")) and not r.get("done_truth") for r in rs),
+        "missed_successes": sum(not r.get("verified") and bool(r.get("done_truth")) for r in rs),
+    }
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="300:310", help="A:B, the seeds A..B-1 (each task runs every seed)")
@@ -149,11 +161,8 @@ def main() -> int:
         rs = [r for r in results if r["task"] == task]
         ended = Counter(r.get("failed_in") or r["outcome"] for r in rs if not r.get("verified"))
         row = {
-            "runs": len(rs),
-            "verified": sum(bool(r.get("verified")) for r in rs),
-            "done_truth": sum(bool(r.get("done_truth")) for r in rs),
-            "false_successes": sum(bool(r.get("verified")) and not r.get("done_truth") for r in rs),
-            "missed_successes": sum(not r.get("verified") and bool(r.get("done_truth")) for r in rs),
+            **tally(rs),
+            "per_sentence": {s: tally([r for r in rs if r["instruction"] == s]) for s in TASKS[task][1]},
             "ended_in": dict(ended),
             "median_wall_s": float(np.median([r["wall_s"] for r in rs])) if rs else None,
         }

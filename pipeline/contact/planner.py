@@ -11,7 +11,9 @@ A grasp lets go of the object config.place_lifts_m[0] above its goal, or higher 
 where the gripper would touch the scene there: into a container whose walls are taller than the fingers are
 long, onto an object that stands close, the fingers stay above the rim and the object drops the rest. The gripper
 is checked there holding the object and opened as far as it opens to let go, and the joints there and above must
-be free of the scene with the object in the hand (the carry's own world).
+be free of the scene with the object in the hand (the carry's own world). A flat object laid on its face by a
+gripper holding it sideways (a plate grasped at its rim) is let go standing on its far edge instead, and tips over
+onto its goal (tipping.py): the release heights are then above that pose.
 
 Two freedoms the candidates do not spell out are used. The parallel gripper looks the same after a half turn about
 its approach axis, but the wrist does not (link7 is off its axis): one twin may fold link5 onto link7 where the
@@ -42,9 +44,10 @@ from pipeline.contact.sampling import (
     support_height,
 )
 from pipeline.contact.symmetry import ball_centre, revolution_axis, turn_deg
+from pipeline.contact.tipping import flat_normal, tip_turn
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from safety.collision import CollisionWorld
-from safety.geometry import Primitive, transform_points
+from safety.geometry import Primitive, transform_points, turn_about
 from safety.ik import IKSettings
 from safety.robot_model import RobotModel
 
@@ -171,7 +174,8 @@ def plan_contacts(
 def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> list[np.ndarray]:
     """The object motion, then (a grasped body of revolution) the same goal turned about the body's own axis: by
     the turn that keeps the vertical most vertical (a top grasp stays upright), then in SPIN_DEG steps; for a
-    grasped ball only its centre's move (the registration's turn of a ball is arbitrary)."""
+    grasped ball only its centre's move (the registration's turn of a ball is arbitrary); for a flat part the
+    motion and its half turns (_flat_turns)."""
     if mode != "grasp":
         return [T_motion]
     centre = ball_centre(points)
@@ -181,11 +185,25 @@ def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> lis
         return [T]
     axis = revolution_axis(points)
     if axis is None:
-        return [T_motion]
+        return _flat_turns(points, T_motion)
     turns = np.radians(np.arange(-180.0, 180.0, UPRIGHT_STEP_DEG))
     upright = max(turns, key=lambda a: (T_motion @ axis.turn(a))[2, 2])
     spins = [T_motion @ axis.turn(a) for a in (upright, *np.radians(SPIN_DEG))]
     return [T_motion, *(M for M in spins if turn_deg(M, T_motion) > GROUNDED_TURN_DEG)]
+
+
+def _flat_turns(points: np.ndarray, T_motion: np.ndarray) -> list[np.ndarray]:
+    """A flat part (a plate, a board) looks the same after a half turn about its face's normal or about either
+    line across its face through its middle, so the registration may have settled on any of these: the motion
+    composed with each, the least turn first (a plate laid down by a half turn too many turns the wrist round
+    while the fingers hold it by its rim). Any other part: the motion alone."""
+    normal = flat_normal(points)
+    if normal is None:
+        return [T_motion]
+    middle = points.mean(axis=0)
+    across = np.linalg.svd(points - middle, full_matrices=False)[2][:2]
+    halves = [turn_about(middle, axis, np.pi) for axis in (normal, *across)]
+    return sorted([T_motion, *(T_motion @ H for H in halves)], key=lambda M: turn_deg(M, np.eye(4)))
 
 
 def _contact_reason(
@@ -227,6 +245,7 @@ class _GoalCheck:
         self.gripper = GripperBoxes(robot, cfg.collision_padding_m)
         self.clearance = cfg.collision_padding_m + CELL_MARGIN_M
         self.releasing = GripperBoxes(robot, self.clearance)
+        self.moved = moved
         self.placed_reason = [self._placed_reason(m) for m in moved]
 
     def _placed_reason(self, moved: np.ndarray) -> str:
@@ -251,11 +270,20 @@ class _GoalCheck:
         T_geom_base = np.linalg.inv(T_base_tcp @ held.T_link_geom)
         return not held.contains(transform_points(T_geom_base, self.scene)).any()
 
+    def set_down(self, c: Candidate, T_goal: np.ndarray, k: int) -> np.ndarray:
+        """The pose a grasp sets the object down from under the k-th motion: T_goal, or for a flat object laid on
+        its face by a sideways gripper, T_goal turned to stand the object on the edge it tips over about."""
+        if c.mode != "grasp" or not self.cfg.place_lifts_m:
+            return T_goal
+        tip = tip_turn(T_goal, self.moved[k])
+        return T_goal if tip is None else tip @ T_goal
+
     def ending(self, c: Candidate, T_goal: np.ndarray, k: int) -> tuple[tuple[float, ...], str]:
         """(set-down heights above T_goal, why the candidate cannot end at T_goal under the k-th motion): a push
-        ends at T_goal (no heights); a grasp lets go at the release height, config.place_lifts_m[0] or up to
-        config.max_drop_m higher, and passes config.place_lifts_m's others raised as much (without place lifts:
-        the object is set down at T_goal itself). The reason is empty when it can end there."""
+        ends at T_goal (no heights); a grasp lets go at the release height above its set-down pose (set_down),
+        config.place_lifts_m[0] or up to config.max_drop_m higher, and passes config.place_lifts_m's others raised
+        as much (without place lifts: the object is set down at T_goal itself). The reason is empty when it can end
+        there."""
         if c.mode != "grasp":
             why = self._clear(T_goal, (0.0,))
             return (), f"gripper {why} at the goal" if why else ""
@@ -269,8 +297,9 @@ class _GoalCheck:
         p = self.placing
         held = held_box(p.points, c.T_contact, tcp_link=p.tcp_link, name=p.name).padded(self.clearance)
         why = ""
+        T_set = self.set_down(c, T_goal, k)
         for extra in np.arange(0.0, self.cfg.max_drop_m + 1e-9, DROP_STEP_M):
-            T = T_goal.copy()
+            T = T_set.copy()
             T[2, 3] += lifts[0] + extra
             why = self._clear(T, widths, self.releasing)
             if not why and not self._held_clear(held, T):
@@ -308,7 +337,7 @@ def _goal(c: Candidate, T_motion: np.ndarray) -> np.ndarray:
 def _open_width(c: Candidate, cfg: ContactConfig, robot: RobotModel) -> float:
     if c.mode != "grasp":
         return robot.spec.gripper.min_width_m
-    return min(robot.spec.gripper.max_width_m, c.object_width_m + 2 * cfg.finger_clearance_m)
+    return min(robot.spec.gripper.max_width_m, c.object_width_m + 2 * (cfg.finger_clearance_m + c.sway_m))
 
 
 def _pre_contact(c: Candidate, distance_m: float) -> np.ndarray:
@@ -322,7 +351,8 @@ def _drop(plan: ContactPlan, cfg: ContactConfig) -> float:
     """How much higher than place_lifts_m[0] above its goal the plan lets the object go (0 for a push)."""
     if not plan.T_place or not cfg.place_lifts_m:
         return 0.0
-    return float(plan.T_place[0][2, 3] - plan.T_goal[2, 3] - cfg.place_lifts_m[0])
+    T_set = plan.T_goal if plan.T_set is None else plan.T_set
+    return float(plan.T_place[0][2, 3] - T_set[2, 3] - cfg.place_lifts_m[0])
 
 
 def _turn_rad(R_a: np.ndarray, R_b: np.ndarray) -> float:
@@ -447,11 +477,13 @@ def _twin_plan(
         lifts, why = goal_check.ending(c, T_goal, k)
         if why:
             continue
-        goal, why = _goal_ik(robot, T_goal, lifts, qs[-1], accepts)
+        T_set = goal_check.set_down(c, T_goal, k)
+        goal, why = _goal_ik(robot, T_set, lifts, qs[-1], accepts)
         if goal:
             release = goal[1] if len(goal) > 1 else goal[0]  # (pose, joints) where the fingers let go
             width = goal_check.release_width(c, release[0], accepts.released(release[1]))
-            return _plan(c, cfg, robot, T_pre, M, qs, goal, placing, width)
+            plan = _plan(c, cfg, robot, T_pre, M, qs, goal, placing, width)
+            return plan if T_set is T_goal else replace(plan, T_goal=T_goal, T_set=T_set)
         first = first or why
     raise _Unreachable(first or "goal pose out of reach")
 
@@ -474,14 +506,17 @@ def _turns_to_try(c: Candidate, motions: list[np.ndarray], robot: RobotModel) ->
 def _goal_ik(
     robot: RobotModel, T_goal: np.ndarray, lifts: tuple[float, ...], q_from: np.ndarray, accepts: _Acceptance
 ) -> tuple[list[tuple[np.ndarray, np.ndarray]], str]:
-    """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last; ([], why) if one
-    has none."""
+    """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last and drawn towards
+    the contact's joints q_from (not home): a solution on another branch of the arm makes the carry swing it
+    round, and what the fingers hold by friction alone (a plate by its rim) is flung out; ([], why) if one has
+    none."""
     out = []
     for lift in (0.0, *lifts):
         T = T_goal.copy()
         T[2, 3] += lift
         accept = accepts.of("goal" if not out else "place")
-        r = robot.ik(T, out[-1][1] if out else q_from, settings=GOAL_IK_SETTINGS, accept=accept)
+        seed = out[-1][1] if out else q_from
+        r = robot.ik(T, seed, preferred_q=q_from, settings=GOAL_IK_SETTINGS, accept=accept)
         if not r.success:
             what = "goal pose" if not out else "pose to let go from" if len(out) == 1 else "pose above the place"
             held = " with the object in the hand" if out and accept is not None else ""

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from pipeline.contact.tipping import flat_normal
 from pipeline.contact.types import ContactConfig, ContactMode
 
 PAD_HALF_WIDTH_M = 0.016  # half the finger pad's width (along the TCP x axis)
@@ -29,6 +30,14 @@ SUPPORT_POINTS = 5  # ... when there are this many (the gate's cloud has a point
 SUPPORT_CELL_M = 0.01  # the gate sees a support as points, in cells this large
 TABLE_CLEAR_M = 0.002  # a push's padded fingertips this far above the table
 SQUARE_MIN_DEG = 1.0  # a grasp's closing axis this close to the faces' normals is square already
+# a grasp from above pinching the object this many times wider than the narrowest pinch at the same spot closes
+# across a flat part's slant (a plate standing in a rack cut at 60 deg): the part turns in the fingers or slips out
+SLANT_RATIO = 2.0
+# a part standing on a narrow edge (a plate in a rack: pinch width below THIN_RATIO of its height) leans a little
+# between the capture and the grasp, or when a finger brushes it: its top sways up to SWAY_RAD times its height
+THIN_RATIO = 0.2
+SWAY_RAD = 0.1
+STANDING_COS = 0.5  # a flat part whose faces' normal is this close to horizontal stands on its edge
 
 
 @dataclass(frozen=True)
@@ -42,6 +51,7 @@ class Candidate:
     via: tuple[np.ndarray, ...] = ()  # TCP poses passed between contact and goal (an arc push)
     T_goal: np.ndarray | None = None  # None: T_contact carried by the object motion (rigid grasp or push)
     back_off: np.ndarray | None = None  # unit direction from contact to pre-contact (None: up the approach axis)
+    sway_m: float = 0.0  # grasp: how far the pinched part may sway sideways (the fingers open that much wider)
 
 
 def frame(y: np.ndarray, z: np.ndarray, origin: np.ndarray) -> np.ndarray:
@@ -128,12 +138,12 @@ def grasp_candidates(
     points: np.ndarray, normals: np.ndarray, cfg: ContactConfig, max_width_m: float, support_z: float = 0.0
 ) -> tuple[list[Candidate], dict[str, int]]:
     """support_z: the height of a raised support the object stands on (support_height), 0 on the table."""
-    rejected = {"too wide for the gripper": 0, "nothing between the fingers": 0}
+    rejected = {"too wide for the gripper": 0, "nothing between the fingers": 0, "across the object's slant": 0}
     centroid = points.mean(axis=0)
     size = float(np.linalg.norm(np.percentile(points, 95, axis=0) - np.percentile(points, 5, axis=0)))
     top = float(np.percentile(points[:, 2], 98))
     down = np.array([0.0, 0.0, -1.0])
-    poses = []
+    poses, spots = [], []  # spots: which top-grasp origin a pose is at (None from the side)
     # from above: closing axis swept in the horizontal plane, centred on the top surface (which one view sees
     # whole, unlike the sides) and, for elongated objects, also along the long axis
     upper = points[points[:, 2] > top - 0.01]
@@ -146,10 +156,19 @@ def grasp_candidates(
     # (support_z: a stand, seen as points in cells of up to SUPPORT_CELL_M by the gate)
     floor = cfg.min_tcp_height_m + (support_z + SUPPORT_CELL_M if support_z > 0.0 else 0.0)
     height = max(top - min(cfg.grasp_depth_m, 0.75 * (top - support_z)), floor)
-    for offset in offsets:
+    # a flat part standing on its edge (a plate leaning in a rack) is pinched square to its faces, the approach down
+    # its own plane (straight down, a leaning plate lies across the pads and turns or slips out as they close)
+    normal = flat_normal(points)
+    standing = normal is not None and abs(normal[2]) < STANDING_COS
+    for spot, offset in enumerate(offsets):
         origin = np.array([*(centre_xy + offset * axes[0]), height])
+        if standing:
+            poses.append(frame(normal, down - (down @ normal) * normal, origin))
+            spots.append(spot)
+            continue
         for yaw in np.radians(np.arange(0.0, 180.0, cfg.yaw_step_deg)):
             poses.append(frame(np.array([np.cos(yaw), np.sin(yaw), 0.0]), down, origin))
+            spots.append(spot)
     # from the side: horizontal approach from the robot's side, closing axis horizontal
     toward = np.array([centroid[0], centroid[1], 0.0])
     toward /= max(np.linalg.norm(toward), 1e-9)
@@ -158,19 +177,29 @@ def grasp_candidates(
         c, s = np.cos(angle), np.sin(angle)
         z = np.array([c * toward[0] - s * toward[1], s * toward[0] + c * toward[1], 0.0])
         poses.append(frame(np.cross([0.0, 0.0, 1.0], z), z, np.array([centre_xy[0], centre_xy[1], side_height])))
+        spots.append(None)
     poses = [_squared(points, normals, T) if T[2, 2] < -0.99 else T for T in poses]  # from above: squared
-    out, seen = [], set()
-    for T in poses:
+    kept, seen = [], set()
+    for T, spot in zip(poses, spots, strict=True):
         closing = np.degrees(np.arctan2(T[1, 1], T[0, 1])) % 180.0  # squared sweeps meet: one grasp each
         key = (*np.round(T[:3, 3], 4), round(closing) % 180, round(T[2, 2], 2))
-        if key in seen:
-            continue
-        seen.add(key)
-        pinch = _pinch(points, normals, T)
+        if key not in seen:
+            seen.add(key)
+            kept.append((T, spot))
+    pinches = [_pinch(points, normals, T) for T, _ in kept]
+    narrowest: dict[int, float] = {}
+    for (_, spot), pinch in zip(kept, pinches, strict=True):
+        if spot is not None and pinch is not None:
+            narrowest[spot] = min(narrowest.get(spot, np.inf), pinch[0])
+    out = []
+    for (T, spot), pinch in zip(kept, pinches, strict=True):
         if pinch is None:
             rejected["nothing between the fingers"] += 1
             continue
         width, antipodal, shift = pinch
+        if spot is not None and width > SLANT_RATIO * max(narrowest[spot], 0.01):
+            rejected["across the object's slant"] += 1
+            continue
         T = T.copy()
         T[:3, 3] += shift * T[:3, 1]
         if width + 2 * cfg.finger_clearance_m > max_width_m:
@@ -178,7 +207,9 @@ def grasp_candidates(
             continue
         approach = float(np.clip(T[:3, 2] @ down, 0.0, 1.0))
         centred = float(np.clip(1.0 - 2 * np.linalg.norm(T[:2, 3] - centre_xy) / max(size, 1e-6), 0.0, 1.0))
-        out.append(Candidate("grasp", T, width, antipodal, approach, centred))
+        tall = top - support_z
+        sway = SWAY_RAD * tall if spot is not None and width < THIN_RATIO * tall else 0.0
+        out.append(Candidate("grasp", T, width, antipodal, approach, centred, sway_m=sway))
     return out, rejected
 
 

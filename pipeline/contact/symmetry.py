@@ -22,6 +22,7 @@ MIN_POINTS = 50
 ENDS_ALIKE_REL = 0.1  # slices' radii within this share of their median all along: the ends look alike (a can) ...
 END_MARGIN_REL = 0.1  # ... over the middle of the seen length (an end's cap, a disc of smaller radii, left out) ...
 MIN_SLICE_POINTS = 5  # ... in slices of at least this many points
+BALL_SPAN = 0.4  # a ball's radius is at most this share of what its seen points span (their extents' norm)
 
 
 @dataclass(frozen=True)
@@ -38,15 +39,18 @@ class RevolutionAxis:
 
 
 def ball_centre(points: np.ndarray) -> np.ndarray | None:
-    """The centre of the ball the points (N, 3) lie on, or None when they lie on no sphere (no turn of a ball
-    shows, so only where its centre goes matters)."""
+    """The centre of the ball the points (N, 3) lie on, or None when they lie on no sphere no larger than they
+    span (no turn of a ball shows, so only where its centre goes matters)."""
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(P) < MIN_POINTS:
         return None
     centre = np.linalg.lstsq(np.column_stack([2 * P, np.ones(len(P))]), (P**2).sum(axis=1), rcond=None)[0][:3]
     radius = np.linalg.norm(P - centre, axis=1)
     off = float(np.median(np.abs(radius - np.median(radius))))
-    return centre if off <= TOLERANCE_REL * float(np.linalg.norm(np.ptp(P, axis=0))) else None
+    size = float(np.linalg.norm(np.ptp(P, axis=0)))
+    # a flat part lies nearly on a sphere too, a large one: a ball's seen side (a cap of 60 deg half-angle or more)
+    # spans 2.5 radii or more
+    return centre if off <= TOLERANCE_REL * size and float(np.median(radius)) <= BALL_SPAN * size else None
 
 
 def turn_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:

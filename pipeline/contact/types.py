@@ -94,6 +94,9 @@ class ContactPlan:
     # grasp: the poses above T_goal the object is set down from (ContactConfig.place_lifts_m), lowest first
     T_place: tuple[np.ndarray, ...] = ()
     q_place: tuple[np.ndarray, ...] = ()
+    # grasp: the pose the object is set down from when it is not T_goal (q_goal is its joints): a flat object laid
+    # on its face is let go standing on its far edge and tips over onto its goal (tipping.py)
+    T_set: np.ndarray | None = None
     held: Primitive | None = None  # grasp: the object's geometry in the TCP frame once grasped
     score: float = 0.0
     scores: dict[str, float] = field(default_factory=dict)

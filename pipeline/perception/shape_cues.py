@@ -44,6 +44,7 @@ PLATE_MIN_VALUE = 0.4  # ... and not dark, in the light or in a shadow (where it
 # light, a gray base under a light plate at most 0.35
 TWO_TONE_MAX_RATIO = 0.38
 RESEMBLES = 0.9  # a kind that only resembles an older one (dustpan, rack, stand) scores at most this
+NOTCH_SHARE = 0.15  # notches narrower than this share of a region's smaller extent are closed (a rack's tines)
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,7 @@ class Cues:
     elongation: float  # long / short side of the minimum-area rectangle
     rect_fill: float  # area / minimum-area rectangle
     ellipse_iou: float  # overlap with the ellipse fitted to the outline
+    closed_ellipse_iou: float  # the same with narrow notches closed (a plate seen through a rack's tines)
     corners: int  # vertices of the hull's polygon at 2 % of the perimeter
     end_width: float  # width near the narrower end / widest width, along the long axis
     edge_density: float  # edges inside the region per sqrt(area)
@@ -71,11 +73,9 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
     outline = max(contours, key=cv2.contourArea)
     _, (rw, rh), _ = cv2.minAreaRect(outline)
     perimeter = cv2.arcLength(outline, True)
-    ellipse_iou = 0.0
-    if len(outline) >= 5:
-        fitted = np.zeros_like(m)
-        cv2.ellipse(fitted, cv2.fitEllipse(outline), 1, -1)
-        ellipse_iou = float((fitted.astype(bool) & mask).sum() / max((fitted.astype(bool) | mask).sum(), 1))
+    ellipse_iou = _ellipse_iou(m)
+    k = max(3, int(NOTCH_SHARE * min(np.ptp(u) + 1, np.ptp(v) + 1)) | 1)
+    closed = cv2.morphologyEx(m, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
     hull = cv2.approxPolyDP(cv2.convexHull(outline), 0.02 * perimeter, True)
     inner = cv2.erode(m, np.ones((5, 5), np.uint8)).astype(bool)
     edges = cv2.Canny(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), 30, 90).astype(bool)
@@ -85,6 +85,7 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
         elongation=float(max(rw, rh) / max(min(rw, rh), 1.0)),
         rect_fill=float(area / max(rw * rh, 1.0)),
         ellipse_iou=ellipse_iou,
+        closed_ellipse_iou=_ellipse_iou(closed),
         corners=len(hull),
         end_width=_end_width(u, v),
         edge_density=float((edges & inner).sum() / max(np.sqrt(area), 1.0)),
@@ -94,6 +95,18 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
         area_frac=area / mask.size,
         wide_elongation=_wide_elongation(u, v),
     )
+
+
+def _ellipse_iou(m: np.ndarray) -> float:
+    """Overlap of a region (uint8) with the ellipse fitted to its outline."""
+    contours, _ = cv2.findContours(m, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    outline = max(contours, key=cv2.contourArea) if contours else None
+    if outline is None or len(outline) < 5:
+        return 0.0
+    fitted = np.zeros_like(m)
+    cv2.ellipse(fitted, cv2.fitEllipse(outline), 1, -1)
+    inside, fit = m.astype(bool), fitted.astype(bool)
+    return float((inside & fit).sum() / max((inside | fit).sum(), 1))
 
 
 def _body(m: np.ndarray, width: int, height: int, area: float) -> dict[str, float]:
@@ -182,8 +195,9 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * _within(c.ellipse_iou, 0.92, 1.0, 0.04)
         * _within(c.aspect, 0.85, 1.2, 0.1)
         * hollow,
+        # (seen through a rack's tines, the tines' notches closed)
         "plate": _within(c.aspect, 1.08, 1.5, 0.08)
-        * _within(c.ellipse_iou, 0.96, 1.0, 0.03)
+        * _within(max(c.ellipse_iou, c.closed_ellipse_iou), 0.96, 1.0, 0.03)
         * _within(c.edge_density, 0.0, 2.6, 0.6),
         # a pan: a narrow handle at one end, or a round body with a thin part cut off (a handle seen end-on)
         "pan": max(

@@ -77,6 +77,13 @@ TASKS: dict[str, TaskSpec] = {
         target="red_block",
         truth="task_done",
     ),
+    "take_off_plate": TaskSpec(
+        scene="take_off",
+        instruction="take the orange plate out of the dish rack",
+        action="take off",
+        target="plate",
+        truth="task_done",
+    ),
 }
 
 

@@ -172,6 +172,14 @@ class LiftCheckRecord(Section):
     error_m: float  # seen centre to the goal's
 
 
+class LaidCheckRecord(Section):
+    """A flat object laid on its face (let go on its edge to tip over): how it lies, against the goal."""
+
+    top_m: float  # its seen top above the table
+    thickness_m: float  # its thinnest extent as first seen
+    error_m: float  # seen middle to the goal's, across the table
+
+
 class Verification(Section):
     ok: bool
     reason: str
@@ -179,6 +187,7 @@ class Verification(Section):
     group_count: GroupCountRecord | None = None  # a sweep's parts counted in the container
     lift: LiftCheckRecord | None = None  # a lift's rise
     lid_tilt_deg: float | None = None  # a close: the lid's seen face off the table's plane after execution
+    laid: LaidCheckRecord | None = None  # a flat object laid on its face
 
 
 class TaskTruthRecord(Section):

@@ -16,7 +16,7 @@ from pipeline.reasoning.checks import like_the_target
 from runtime.run.contact import instruction_action
 from runtime.run.context import RunContext
 from runtime.run.summary import AchievedRecord, MotionRecord, Verification
-from runtime.run.verify_task import verify_group, verify_lift
+from runtime.run.verify_task import verify_group, verify_laid, verify_lift
 
 CAMERA_STILL_MM, CAMERA_STILL_DEG = 2.0, 0.2  # verification needs both captures from one camera pose
 
@@ -49,6 +49,8 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         return verify_group(ctx, after, segmenter)
     if instruction_action(ctx.instruction) == "lift":  # held in the fingers: lifted clear, where the goal puts it
         return verify_lift(ctx, after, segmenter)
+    if ctx.contact is not None and ctx.contact.T_set is not None:  # tipped over onto its face: its other side shows
+        return verify_laid(ctx, after, segmenter)
     detections = find_target_again(segmenter, after.rgb, goal.target, before.rgb, goal.mask_init)
     if len(detections) != 1:
         return Verification(ok=False, reason=f"target '{goal.target}' found {len(detections)} times after execution")

@@ -9,6 +9,13 @@ sweep, never the reverse).
 Lift (the paper's "lifted clear"): the object is found again in the after capture, held in the fingers (which
 hide part of it, so registering it against its first view is unreliable); it is lifted when its lowest seen
 point rose at least LIFT_CLEAR_M and its seen centre is within the position tolerance of where the goal puts it.
+
+Laid flat (a plate taken out of a rack, let go on its edge to tip over onto its face): the camera first saw one
+face and now sees the other side of it, so no registration relates the two views. It is found again; it lies flat
+when its seen top is no higher above the table than its thinnest extent as first seen (plus LAID_TOL_M), and it
+is where the goal puts it when its seen middle (the middle of its extents: tines in front of it hide strips, which
+pull a mean or median aside) is within the position tolerance of the goal's across the table (lying, its height
+is the table's; the goal's is the grounded tilt's, a few degrees off over a plate's radius).
 """
 
 from __future__ import annotations
@@ -21,11 +28,12 @@ from drivers.types import RGBDFrame
 from pipeline.grounding.group import count_in_container
 from pipeline.perception.segmenter import Segmenter
 from runtime.run.context import RunContext
-from runtime.run.summary import GroupCountRecord, LiftCheckRecord, Verification
+from runtime.run.summary import GroupCountRecord, LaidCheckRecord, LiftCheckRecord, Verification
 from safety.geometry import transform_points
 
 REQUIRED_FRACTION = 0.8  # of the parts, inside the container (the paper's table sweeping: "swept into the dustpan")
 LIFT_CLEAR_M = 0.01  # a lifted object's lowest seen point rose at least this much
+LAID_TOL_M = 0.015  # a laid object's seen top is at most this much above its thickness
 
 
 def verify_group(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Verification:
@@ -92,3 +100,38 @@ def verify_lift(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Veri
         lowest_rise_m=rise, centre_rise_m=float(c1[2] - c0[2]), goal_rise_m=float(goal_centre[2] - c0[2]), error_m=error
     )
     return Verification(ok=ok, reason=("lifted clear: " if ok else "not lifted as asked: ") + reason, lift=record)
+
+
+def _middle(points: np.ndarray) -> np.ndarray:
+    """The middle of a cloud's extents along the base axes (2-98 %: depth bleeds at a thin object's edges)."""
+    return 0.5 * (np.percentile(points, 2, axis=0) + np.percentile(points, 98, axis=0))
+
+
+def _thickness(points: np.ndarray) -> float:
+    """The thinnest extent of a cloud (5-95 % along its least principal direction)."""
+    centred = points - points.mean(axis=0)
+    along = centred @ np.linalg.svd(centred, full_matrices=False)[2][2]
+    return float(np.percentile(along, 95) - np.percentile(along, 5))
+
+
+def verify_laid(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Verification:
+    before, goal = ctx.frame0, ctx.goal
+    found = segmenter.segment(after.rgb, goal.target)
+    if len(found) != 1:
+        return Verification(ok=False, reason=f"target '{goal.target}' found {len(found)} times after execution")
+    ctx.record.image("mask_after", found[0].mask)
+    p0, p1 = _base_points(before, goal.mask_init), _base_points(after, found[0].mask)
+    if len(p0) < 10 or len(p1) < 10:
+        return Verification(ok=False, reason=f"too few points with depth: {len(p0)} before, {len(p1)} after")
+    T = ctx.motion.T_base
+    goal_middle = T[:3, :3] @ _middle(p0) + T[:3, 3]
+    error = float(np.linalg.norm(_middle(p1)[:2] - goal_middle[:2]))
+    top, thickness = float(np.percentile(p1[:, 2], 98)), _thickness(p0)
+    tol = ctx.profile.runtime.verify_position_tol_m
+    ok = top <= thickness + LAID_TOL_M and error <= tol
+    reason = (
+        f"top {top * 1000:.0f} mm above the table (lying flat: at most {(thickness + LAID_TOL_M) * 1000:.0f}), "
+        f"middle {error * 1000:.0f} mm from the goal's across the table (tolerance {tol * 1000:.0f})"
+    )
+    record = LaidCheckRecord(top_m=top, thickness_m=thickness, error_m=error)
+    return Verification(ok=ok, reason=("laid flat: " if ok else "not laid as asked: ") + reason, laid=record)

@@ -147,6 +147,38 @@ def test_lift_and_take_off_goals_are_composed_and_grounded(task_view, scene, sen
     assert error < 0.015, f"{error * 1000:.1f} mm"
 
 
+def test_the_plate_in_the_rack_is_laid_flat_beside_it_and_grounded_up_to_its_symmetry(task_view):
+    """The plate standing in the dish rack: its goal lies on its face on the table beside the rack; the grounded
+    motion puts the plate where the goal does (a plate looks the same flipped or turned about its normal, so its
+    points are compared as a set: centre and faces)."""
+    frame, masks, world = task_view("take_off", 3)
+    goal = build_reasoner(PipelineConfig()).run(frame, "take the orange plate out of the dish rack")
+    assert goal.validated and _iou(goal.mask_init, masks["plate"]) > 0.8
+    T = goal.T_goal_init_camera
+    points = frame.intrinsics.unproject_depth_image(frame.depth)[goal.mask_init & np.isfinite(frame.depth)]
+    up = frame.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])  # the base's up in the camera frame
+    laid = points @ T[:3, :3].T + T[:3, 3]
+    thin = np.linalg.svd(laid - laid.mean(axis=0), full_matrices=False)[2][2]
+    assert abs(thin @ up) > 0.95  # lying on its face
+    rack = world.object_pose("rack")[:2, 3]
+    centre_base = np.median(transform_points(frame.T_base_camera, laid), axis=0)  # (depth bleeds at the edges)
+    stood = np.median(transform_points(frame.T_base_camera, points), axis=0)
+    assert np.linalg.norm(centre_base[:2] - rack) > 0.1 and centre_base[2] < stood[2] - 0.03  # beside it, lower
+    motion = ground(GroundingInput.from_goal(frame, goal), make_feature_extractor("offline"))
+    assert motion.ok, motion.reason
+    grounded = points @ motion.R.T + motion.t
+    assert np.linalg.norm(np.median(grounded, axis=0) - np.median(laid, axis=0)) < 0.015
+    assert abs(np.linalg.svd(grounded - grounded.mean(axis=0), full_matrices=False)[2][2] @ up) > 0.95
+
+
+def test_the_plate_seen_through_the_racks_tines_is_a_plate(task_view):
+    """The tines cut notches into the plate's outline, which no longer fits an ellipse (it read as a box, so "take
+    the plate off the rack" matched nothing); with the notches closed it is a plate again."""
+    frame, masks, _ = task_view("take_off", 3)
+    found = OfflineSegmenter().segment(frame.rgb, "plate")
+    assert len(found) == 1 and _iou(found[0].mask, masks["plate"]) > 0.8
+
+
 def test_cloud_enhancement_names_a_group_and_a_tool(fake_server, task_view, monkeypatch, tmp_path):
     """Gemini names several targets and a tool: the reasoner takes every screw as the target, the brush as the
     tool, the dustpan as where they go (the candidate is the offline composition, served by the fake server)."""

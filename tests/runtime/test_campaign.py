@@ -80,7 +80,7 @@ def test_truth_judges_the_target_where_it_ended_not_the_verdict():
 
 
 def test_the_sweep_lift_and_take_off_tasks_are_judged_by_their_own_truth():
-    for task in ("table_sweep", "pick_up", "take_off"):
+    for task in ("table_sweep", "pick_up", "take_off", "take_off_plate"):
         c = case(task)
         done = SimTruthRecord(
             object_displacement_m={}, hinge_deg={}, task=TaskTruthRecord(action="sweep", done=True, detail="5 of 5")

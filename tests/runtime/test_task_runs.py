@@ -64,6 +64,12 @@ def test_sweep_the_screws_into_the_dustpan(sim_config_path, tmp_path):
     [
         ("pick_up", 2, "pick up the red cup", ["approach", "grasp", "lift"]),
         ("take_off", 2, "take the red block off the stand", ["approach", "grasp", "carry", "retreat", "home"]),
+        (
+            "take_off",
+            1,
+            "take the orange plate out of the dish rack",
+            ["approach", "grasp", "carry", "retreat", "home"],
+        ),
     ],
 )
 def test_pick_up_and_take_off(sim_config_path, tmp_path, scene, seed, instruction, phases):
@@ -75,8 +81,10 @@ def test_pick_up_and_take_off(sim_config_path, tmp_path, scene, seed, instructio
     if scene == "pick_up":  # held up in the fingers, as the verification measured it
         assert s.plan.mode == "lift" and s.verification.lift.lowest_rise_m > 0.08
         assert s.sim_truth.task.touching == [] and s.sim_truth.task.lifted_m > 0.08
-    else:  # the stand is left empty, the block rests on the table
+    else:  # the stand (the rack) is left empty, the object rests on the table
         assert s.sim_truth.task.touching == ["table"]
+    if "plate" in instruction:  # let go on its far edge, it tipped over onto its face: verified as it lies
+        assert s.plan.mode == "grasp" and s.verification.laid is not None and s.verification.laid.error_m < 0.03
 
 
 def _scene_variant(tmp_path, change) -> str:
