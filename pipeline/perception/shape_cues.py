@@ -19,23 +19,6 @@ import numpy as np
 
 from pipeline.perception.colour_regions import hsv
 
-KINDS = (
-    "box",
-    "cylinder",
-    "sphere",
-    "plate",
-    "bottle",
-    "pan",
-    "bowl",
-    "platform",
-    "lidded_box",
-    "cup",
-    "screw",
-    "brush",
-    "dustpan",
-    "dish_rack",
-    "stand",
-)
 SPECK_AREA_FRAC = 8e-4  # a screw's region at most this share of the image (the smallest block is above 9e-4)
 PLATE_MAX_SATURATION = 0.06  # a scale's weighing plate is neutral light gray ...
 PLATE_MIN_VALUE = 0.4  # ... and not dark, in the light or in a shadow (where its value falls to about 0.55)

@@ -4,6 +4,7 @@ and view, at rest before the first capture, with instructions that name exactly 
 from __future__ import annotations
 
 import math
+import typing
 from collections import Counter
 
 import numpy as np
@@ -20,11 +21,16 @@ from drivers.sim.generate import (
     scene_for,
     scene_yaml,
 )
-from drivers.sim.kinds import GENERATED_KINDS
-from drivers.sim.scene import SceneError, first_clash, load_scene
+from drivers.sim.kinds import GENERATED_KINDS, KINDS
+from drivers.sim.scene import SceneError, SceneObject, first_clash, load_scene
 from pipeline.reasoning.instruction import InstructionError, check_instruction
 
 SEEDS = range(300)
+
+
+def test_every_kind_a_scene_file_may_name_has_its_entry_in_the_kinds_table():
+    """The scene model's kinds and kinds.KINDS are one list: a kind added to one and not the other fails here."""
+    assert set(typing.get_args(SceneObject.model_fields["kind"].annotation)) == set(KINDS)
 
 
 @pytest.fixture(scope="module")
