@@ -76,15 +76,29 @@ def _base_points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
     return transform_points(frame.T_base_camera, frame.intrinsics.unproject_depth_image(frame.depth)[valid])
 
 
-def verify_lift(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Verification:
-    before, goal = ctx.frame0, ctx.goal
+class _NotMeasured(Exception):
+    """The target cannot be measured in the after image (the reason says why)."""
+
+
+def _target_clouds(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> tuple[np.ndarray, np.ndarray]:
+    """The target's points in the base frame before (the planning capture) and after execution, its after-mask
+    recorded; _NotMeasured unless it is found exactly once with enough depth in both."""
+    goal = ctx.goal
     found = segmenter.segment(after.rgb, goal.target)
     if len(found) != 1:
-        return Verification(ok=False, reason=f"target '{goal.target}' found {len(found)} times after execution")
+        raise _NotMeasured(f"target '{goal.target}' found {len(found)} times after execution")
     ctx.record.image("mask_after", found[0].mask)
-    p0, p1 = _base_points(before, goal.mask_init), _base_points(after, found[0].mask)
+    p0, p1 = _base_points(ctx.frame0, goal.mask_init), _base_points(after, found[0].mask)
     if len(p0) < 10 or len(p1) < 10:
-        return Verification(ok=False, reason=f"too few points with depth: {len(p0)} before, {len(p1)} after")
+        raise _NotMeasured(f"too few points with depth: {len(p0)} before, {len(p1)} after")
+    return p0, p1
+
+
+def verify_lift(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Verification:
+    try:
+        p0, p1 = _target_clouds(ctx, after, segmenter)
+    except _NotMeasured as e:
+        return Verification(ok=False, reason=str(e))
     T = ctx.motion.T_base
     c0, c1 = p0.mean(axis=0), p1.mean(axis=0)
     goal_centre = T[:3, :3] @ c0 + T[:3, 3]
@@ -115,14 +129,10 @@ def _thickness(points: np.ndarray) -> float:
 
 
 def verify_laid(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Verification:
-    before, goal = ctx.frame0, ctx.goal
-    found = segmenter.segment(after.rgb, goal.target)
-    if len(found) != 1:
-        return Verification(ok=False, reason=f"target '{goal.target}' found {len(found)} times after execution")
-    ctx.record.image("mask_after", found[0].mask)
-    p0, p1 = _base_points(before, goal.mask_init), _base_points(after, found[0].mask)
-    if len(p0) < 10 or len(p1) < 10:
-        return Verification(ok=False, reason=f"too few points with depth: {len(p0)} before, {len(p1)} after")
+    try:
+        p0, p1 = _target_clouds(ctx, after, segmenter)
+    except _NotMeasured as e:
+        return Verification(ok=False, reason=str(e))
     T = ctx.motion.T_base
     goal_middle = T[:3, :3] @ _middle(p0) + T[:3, 3]
     error = float(np.linalg.norm(_middle(p1)[:2] - goal_middle[:2]))

@@ -87,15 +87,19 @@ def test_a_plate_laid_on_its_face_by_a_sideways_gripper_is_stood_on_its_far_edge
     assert tip_turn(T_goal, lying + np.array([0, 0, 1.0]) * lying[:, :1] * 3) is None
 
 
-def test_planning_a_standing_plate_onto_the_table_lets_it_go_on_its_edge_from_above():
-    robot = RobotModel()
+def standing_plate_laid_beside() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A plate standing on its rim (points, centre, face normal) and the motion that lays it on its face beside
+    where it stood, its top towards the robot: a quarter turn about its near bottom edge, then 17 cm aside."""
     centre, normal = np.array([0.45, 0.2, 0.082]), np.array([1.0, 0.0, 0.0])
-    pts = disc(centre, normal)
-    # laid on its face beside where it stood, its top towards the robot: a quarter turn about its near bottom edge
     lay = turn_about(np.array([centre[0] - THICK / 2, centre[1], 0.012]), np.array([0.0, 1.0, 0.0]), -math.pi / 2)
     shift = np.eye(4)
     shift[:3, 3] = [0.0, 0.17, -0.012 + THICK / 2]
-    motion = shift @ lay
+    return disc(centre, normal), centre, normal, shift @ lay
+
+
+def test_planning_a_standing_plate_onto_the_table_lets_it_go_on_its_edge_from_above():
+    robot = RobotModel()
+    pts, _, _, motion = standing_plate_laid_beside()
     cfg = ContactConfig(place_lifts_m=place_heights(0.01), collision_padding_m=0.01)
     result = plan_contacts(pts, np.zeros((0, 3)), motion, robot, config=cfg, viewpoint=np.array([1.1, 0.0, 0.8]))
     assert result.ok, result.reason
@@ -124,12 +128,8 @@ def test_a_plate_grounded_a_half_turn_off_is_carried_by_the_least_turn():
     """A plate looks the same turned half about its normal: registered so, laying it down would turn the wrist
     half round with the plate held by its rim; the plan lays it down by the quarter turn."""
     robot = RobotModel()
-    centre, normal = np.array([0.45, 0.2, 0.082]), np.array([1.0, 0.0, 0.0])
-    pts = disc(centre, normal)
-    lay = turn_about(np.array([centre[0] - THICK / 2, centre[1], 0.012]), np.array([0.0, 1.0, 0.0]), -math.pi / 2)
-    shift = np.eye(4)
-    shift[:3, 3] = [0.0, 0.17, -0.012 + THICK / 2]
-    spun = shift @ lay @ turn_about(centre, normal, math.pi)  # the same plate on the table, a half turn more
+    pts, centre, normal, laid = standing_plate_laid_beside()
+    spun = laid @ turn_about(centre, normal, math.pi)  # the same plate on the table, a half turn more
     assert turn_deg(spun, np.eye(4)) > 150
     cfg = ContactConfig(place_lifts_m=place_heights(0.01), collision_padding_m=0.01)
     result = plan_contacts(pts, np.zeros((0, 3)), spun, robot, config=cfg, viewpoint=np.array([1.1, 0.0, 0.8]))
