@@ -20,7 +20,8 @@ import numpy as np
 from pipeline.perception.colour_regions import hsv
 
 SPECK_AREA_FRAC = 8e-4  # a screw's region at most this share of the image (the smallest block is above 9e-4)
-PLATE_MAX_SATURATION = 0.06  # a scale's weighing plate is neutral light gray ...
+PLATE_MAX_SATURATION = 0.025  # a scale's weighing plate is neutral light gray (a pale pink face washed out by the light
+# keeps a tint of 0.03-0.06) ...
 PLATE_MIN_VALUE = 0.4  # ... and not dark, in the light or in a shadow (where its value falls to about 0.55)
 # a neutral scale: its plate and its base are one neutral region, told apart from a white object by a base of a
 # darker shade: a white box's or chest's shaded faces keep at least 0.45 of its lit top's value in the sim's
@@ -28,6 +29,14 @@ PLATE_MIN_VALUE = 0.4  # ... and not dark, in the light or in a shadow (where it
 TWO_TONE_MAX_RATIO = 0.38
 RESEMBLES = 0.9  # a kind that only resembles an older one (dustpan, rack, stand) scores at most this
 NOTCH_SHARE = 0.15  # notches narrower than this share of a region's smaller extent are closed (a rack's tines)
+# shading, on the brightest channel: a pixel is level when its 3x3 neighbourhood varies by at most LEVEL_STEP of its
+# value (or LEVEL_MIN_LEVELS of 255: quantisation, a face's fine texture), on a ramp when it is not and its 5x5
+# neighbourhood varies RAMP_RATIO times as much (shading that keeps changing: a curved surface; an edge between two
+# faces is a step, as large over 3x3 as over 5x5). Clipped pixels (CLIPPED of 255 and up) say nothing, nor does a
+# region too dark to read shading from (median below DARK_VALUE: a black can is level within quantisation).
+LEVEL_STEP, LEVEL_MIN_LEVELS, RAMP_RATIO = 0.02, 2, 1.5
+CLIPPED, DARK_VALUE = 250, 60
+MIN_SHADED_PX = 40
 
 
 @dataclass(frozen=True)
@@ -46,6 +55,8 @@ class Cues:
     body_share: float  # the opened region's area / the region's
     area_frac: float  # the region's share of the image
     wide_elongation: float  # elongation of the region's wide part (its slices at least 0.6 of the widest)
+    level_share: float | None  # share of its inside shaded level (plane faces); None: unreadable (dark, clipped)
+    ramp_share: float | None  # share on a shading ramp (a curved surface); None with level_share
 
 
 def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
@@ -77,7 +88,22 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
         **_body(m, np.ptp(u) + 1, np.ptp(v) + 1, area),
         area_frac=area / mask.size,
         wide_elongation=_wide_elongation(u, v),
+        **_shading(mask, rgb),
     )
+
+
+def _shading(mask: np.ndarray, rgb: np.ndarray) -> dict[str, float | None]:
+    """Shares of the region's readable inside (5x5 windows within it, not clipped) shaded level, and on a ramp."""
+    value = np.ascontiguousarray(rgb.max(axis=2))
+    k3, k5 = np.ones((3, 3), np.uint8), np.ones((5, 5), np.uint8)
+    inside = cv2.erode(mask.astype(np.uint8), k5).astype(bool) & (value < CLIPPED)
+    if inside.sum() < MIN_SHADED_PX or np.median(value[mask]) < DARK_VALUE:
+        return {"level_share": None, "ramp_share": None}
+    step3 = (cv2.dilate(value, k3).astype(np.float32) - cv2.erode(value, k3))[inside]
+    step5 = (cv2.dilate(value, k5).astype(np.float32) - cv2.erode(value, k5))[inside]
+    level = step3 <= np.maximum(LEVEL_MIN_LEVELS, LEVEL_STEP * value[inside])
+    ramp = ~level & (step5 >= RAMP_RATIO * step3)
+    return {"level_share": float(level.mean()), "ramp_share": float(ramp.mean())}
 
 
 def _ellipse_iou(m: np.ndarray) -> float:
@@ -147,6 +173,11 @@ def _within(x: float, lo: float, hi: float, margin: float) -> float:
     return float(np.clip(1.0 - max(lo - x, x - hi, 0.0) / margin, 0.0, 1.0))
 
 
+def _shaded(share: float | None, lo: float, hi: float, margin: float) -> float:
+    """_within for a shading share; 1 when the region's shading is unreadable (the cue then decides nothing)."""
+    return 1.0 if share is None else _within(share, lo, hi, margin)
+
+
 def _plate_on_top(c: Cues, colour: str) -> float:
     """How much a region looks like a scale's light plate on its base: a coloured (or black) region holding a
     neutral plate, or a white-named neutral region of two shades (a light plate on a darker gray base). A gray-named
@@ -168,11 +199,22 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     body = _within(c.end_width, 0.8, 1.0, 0.1)  # as wide at its ends as in its middle
     necked = _within(c.end_width, 0.0, 0.66, 0.1) * _within(c.end_width, 0.32, 1.0, 0.1)
     round_body = _within(c.body_ellipse_iou, 0.94, 1.0, 0.02)  # an ellipse once thin parts are cut off
+    # shading: a ball has no level face, a block is level faces with steps between them (little ramp), a standing
+    # can a level top above a side shaded across
+    no_level_face = _shaded(c.level_share, 0.0, 0.1, 0.1)
+    curved = 1.0 if c.ramp_share is None else _within(c.ramp_share, 0.35, 1.0, 0.1)
+    standing_can = (
+        _within(c.aspect, 0.45, 0.9, 0.1)
+        * (0.0 if c.ramp_share is None else curved)
+        * _shaded(c.level_share, 0.1, 1.0, 0.08)
+        * _within(c.end_width, 0.66, 1.0, 0.1)
+    )
     out = {
         # a ball: round and smooth; an edited goal re-projects its seen half, which stretches it upward a little
         "sphere": _within(c.elongation, 1.0, 1.2, 0.08)
         * _within(c.aspect, 0.75, 1.1, 0.03)
         * _within(c.ellipse_iou, 0.94, 1.0, 0.04)
+        * no_level_face
         * smooth,
         "bowl": _within(c.elongation, 1.0, 1.2, 0.1)
         * _within(c.ellipse_iou, 0.92, 1.0, 0.04)
@@ -193,16 +235,18 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * _within(c.edge_density, 0.0, 2.2, 0.8)
         * _within(c.rect_fill, 0.8, 1.0, 0.08)
         * _within(c.elongation, 1.0, 2.0, 0.4)
+        * (1.0 - curved if c.ramp_share is not None else 1.0)
         * (1.0 - plate_on_top),
         "lidded_box": hollow
         * _within(c.corners, 0.0, 6.5, 1.5)
         * _within(c.ellipse_iou, 0.0, 0.9, 0.04)
         * (1.0 - round_body),
         "cylinder": max(
-            _within(c.aspect, 0.45, 0.9, 0.1) * round_outline,  # upright: rounded ends
-            _within(c.elongation, 1.8, 3.6, 0.3) * _within(c.rect_fill, 0.88, 1.0, 0.05),  # lying
+            _within(c.aspect, 0.45, 0.9, 0.1) * round_outline * body,  # upright: rounded ends
+            _within(c.elongation, 1.8, 3.6, 0.3) * _within(c.rect_fill, 0.88, 1.0, 0.05) * body,  # lying
+            standing_can,  # upright, too small for its ends to look round
         )
-        * body
+        * _shaded(c.ramp_share, 0.2, 1.0, 0.1)  # a side shaded across, not level faces
         * smooth,
         "bottle": necked * _within(c.elongation, 1.9, 4.5, 0.3),
     }

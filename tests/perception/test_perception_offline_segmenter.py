@@ -50,12 +50,22 @@ def ball(img: np.ndarray, centre: tuple[int, int], radius: int, colour: tuple[in
     return inside
 
 
+def can(img: np.ndarray, side: np.ndarray, colour: tuple[int, int, int]) -> None:
+    """A standing can's side (mask), lit from the left: its shading runs across it, level along its axis."""
+    v, u = np.nonzero(side)
+    t = (u - u.mean()) / (np.ptp(u) / 2 + 1e-9)  # -1 at its left edge, 1 at its right
+    k = 0.45 + 0.6 * np.sqrt(np.clip(1.0 - t**2, 0.0, 1.0)) - 0.25 * t
+    img[v, u] = np.clip(np.array(colour)[None, :] * k[:, None], 0, 255).astype(np.uint8)
+
+
 def shapes_scene() -> np.ndarray:
     """An upright can (shaded side, lighter elliptic top), a block (three faces), a ball and a flat plate."""
     img = np.full((160, 240, 3), TABLE, np.uint8)
     green = (40, 160, 50)
-    cv2.rectangle(img, (30, 50), (52, 100), shaded(green, 0.8), -1)
-    cv2.ellipse(img, (41, 100), (11, 5), 0, 0, 180, shaded(green, 0.8), -1)
+    side = np.zeros(img.shape[:2], np.uint8)
+    cv2.rectangle(side, (30, 50), (52, 100), 1, -1)
+    cv2.ellipse(side, (41, 100), (11, 5), 0, 0, 180, 1, -1)
+    can(img, side.astype(bool), green)
     cv2.ellipse(img, (41, 50), (11, 5), 0, 0, 360, shaded(green, 1.3), -1)
     blue = (30, 60, 200)
     top = np.array([[90, 60], [110, 52], [130, 60], [110, 68]])
