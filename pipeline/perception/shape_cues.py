@@ -36,6 +36,7 @@ NOTCH_SHARE = 0.15  # notches narrower than this share of a region's smaller ext
 # region too dark to read shading from (median below DARK_VALUE: a black can is level within quantisation).
 LEVEL_STEP, LEVEL_MIN_LEVELS, RAMP_RATIO = 0.02, 2, 1.5
 CLIPPED, DARK_VALUE = 250, 60
+MIN_UNCLIPPED = 0.5  # the shading is read when at least this share of the region's inside is unclipped
 MIN_SHADED_PX = 40
 
 
@@ -93,11 +94,14 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
 
 
 def _shading(mask: np.ndarray, rgb: np.ndarray) -> dict[str, float | None]:
-    """Shares of the region's readable inside (5x5 windows within it, not clipped) shaded level, and on a ramp."""
+    """Shares of the region's readable inside (5x5 windows within it, not clipped) shaded level, and on a ramp;
+    None when too little of it is readable (a pale can lying in the light, its side clipped but for a sliver)."""
     value = np.ascontiguousarray(rgb.max(axis=2))
     k3, k5 = np.ones((3, 3), np.uint8), np.ones((5, 5), np.uint8)
-    inside = cv2.erode(mask.astype(np.uint8), k5).astype(bool) & (value < CLIPPED)
-    if inside.sum() < MIN_SHADED_PX or np.median(value[mask]) < DARK_VALUE:
+    within = cv2.erode(mask.astype(np.uint8), k5).astype(bool)
+    inside = within & (value < CLIPPED)
+    unreadable = inside.sum() < max(MIN_SHADED_PX, MIN_UNCLIPPED * within.sum())
+    if unreadable or np.median(value[mask]) < DARK_VALUE:
         return {"level_share": None, "ramp_share": None}
     step3 = (cv2.dilate(value, k3).astype(np.float32) - cv2.erode(value, k3))[inside]
     step5 = (cv2.dilate(value, k5).astype(np.float32) - cv2.erode(value, k5))[inside]

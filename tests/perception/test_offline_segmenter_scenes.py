@@ -207,7 +207,8 @@ def _named(detections: list, truth: dict[str, np.ndarray]) -> dict:
 def test_small_blocks_balls_and_standing_cans_are_told_by_their_shading(sim_profile_with, tmp_path):
     """At 15-30 px across a block, a ball and a standing can have outlines too alike to be told by (a small block
     read as a ball, a can as a block); their shading tells them: a block is level faces, a ball has none, a can
-    has a level top above a side shaded across. Cans in the light and in the arm's shadow, blocks at two yaws."""
+    has a level top above a side shaded across. Cans in the light and in the arm's shadow, blocks at two yaws; a
+    pale can lying in the light, its side clipped, is told by its outline."""
     objects = [
         {"name": "pale_block", "kind": "box", "size_m": [0.033, 0.031, 0.042], "color": "light_pink"},
         {"name": "block", "kind": "box", "size_m": [0.048, 0.042, 0.057], "color": "purple", "yaw_deg": 41.0},
@@ -215,9 +216,11 @@ def test_small_blocks_balls_and_standing_cans_are_told_by_their_shading(sim_prof
         {"name": "shaded_can", "kind": "cylinder", "radius_m": 0.024, "height_m": 0.057, "color": "green"},
         {"name": "wide_can", "kind": "cylinder", "radius_m": 0.037, "height_m": 0.069, "color": "green"},
         {"name": "can", "kind": "cylinder", "radius_m": 0.023, "height_m": 0.066, "color": "dark_pink"},
+        {"name": "pale_can", "kind": "cylinder", "radius_m": 0.023, "height_m": 0.099, "color": "light_yellow"},
     ]
-    places = ([0.39, 0.21, -50.0], [0.42, -0.14, 41.0], [0.45, -0.3, 0.0], [0.355, -0.09, 0.0], [0.25, 0.22, 0.0])
-    places += ([0.5, 0.25, 0.0],)
+    places = ([0.6, -0.05, -50.0], [0.42, -0.14, 41.0], [0.45, -0.3, 0.0], [0.355, -0.09, 0.0], [0.25, 0.22, 0.0])
+    places += ([0.55, 0.12, 0.0], [0.415, 0.255, 140.0])
+    objects[-1]["lying"] = True  # in the light its side clips but for a sliver: too little shading to read
     for o, (x, y, yaw) in zip(objects, places, strict=True):
         o |= {"xy_m": [x, y], "yaw_deg": yaw}
     path = tmp_path / "small.yaml"
