@@ -420,7 +420,8 @@ class _Acceptance:
     """Which IK solutions a twin's poses accept, in the gate's scene (collision_world; none: every solution).
 
     approach: the pre-contact, contact and arc poses, free with the fingers at the approach opening; goal: the goal
-    pose itself, free of self-collision, workspace and keep-out (the object is set down from above it); place: a
+    pose itself, free of self-collision, workspace and keep-out (the object is set down from above it, so a grasp
+    with place lifts needs it only as a seed: _goal_ik); place: a
     grasp's release and the pose above it, free of everything, the object in the hand (the carry's world), the
     fingers holding it and opened to let go."""
 
@@ -509,19 +510,26 @@ def _goal_ik(
     """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last and drawn towards
     the contact's joints q_from (not home): a solution on another branch of the arm makes the carry swing it
     round, and what the fingers hold by friction alone (a plate by its rim) is flung out; ([], why) if one has
-    none."""
-    out = []
+    none. A grasp set down from above its goal (lifts) never takes the goal pose itself: where that has no
+    accepted IK (a can stood up by its middle puts the wrist below the workspace floor; its release, higher, does
+    not), the poses above are solved from q_from and the release's joints stand for the goal's."""
+    out: list[tuple[np.ndarray, np.ndarray | None]] = []
     for lift in (0.0, *lifts):
         T = T_goal.copy()
         T[2, 3] += lift
         accept = accepts.of("goal" if not out else "place")
-        seed = out[-1][1] if out else q_from
+        seed = out[-1][1] if out and out[-1][1] is not None else q_from
         r = robot.ik(T, seed, preferred_q=q_from, settings=GOAL_IK_SETTINGS, accept=accept)
+        if not r.success and not out and lifts:
+            out.append((T, None))
+            continue
         if not r.success:
             what = "goal pose" if not out else "pose to let go from" if len(out) == 1 else "pose above the place"
             held = " with the object in the hand" if out and accept is not None else ""
             return [], f"{what} out of reach{held}"
         out.append((T, r.q))
+    if out[0][1] is None:
+        out[0] = (out[0][0], out[1][1])
     return out, ""
 
 
