@@ -420,8 +420,8 @@ class _Acceptance:
     """Which IK solutions a twin's poses accept, in the gate's scene (collision_world; none: every solution).
 
     approach: the pre-contact, contact and arc poses, free with the fingers at the approach opening; goal: the goal
-    pose itself, free of self-collision, workspace and keep-out (the object is set down from above it, so a grasp
-    with place lifts needs it only as a seed: _goal_ik); place: a
+    pose itself, free of self-collision, workspace and keep-out (the object is set down from above it: a grasp
+    with place lifts falls back to it only as a seed, _goal_ik); place: a
     grasp's release and the pose above it, free of everything, the object in the hand (the carry's world), the
     fingers holding it and opened to let go."""
 
@@ -461,8 +461,9 @@ def _twin_plan(
     accepts: _Acceptance,
     placing: _Placing,
 ) -> ContactPlan:
-    """The plan of this twin under the first motion whose goal passes the goal checks and has IK; else
-    _Unreachable."""
+    """The plan of this twin under the first motion whose goal passes the goal checks and has IK; else, for a grasp
+    let go above its goal, the first whose release and the pose above it have IK though the goal pose itself has
+    none the gate accepts (_goal_ik); else _Unreachable."""
     T_pre = _pre_contact(c, cfg.pre_distance_m)
     qs = []
     arc = [(T, "arc") for T in c.via]
@@ -472,14 +473,14 @@ def _twin_plan(
             raise _Unreachable(f"{where} pose out of reach")
         qs.append(r.q)
     first = ""
-    for k in _turns_to_try(c, motions, robot):
+    endings = [(k, *goal_check.ending(c, _goal(c, motions[k]), k)) for k in _turns_to_try(c, motions, robot)]
+    tries = [(k, lifts, True) for k, lifts, why in endings if not why]
+    tries += [(k, lifts, False) for k, lifts, _ in tries if lifts]  # the goal pose only a seed: the second pass
+    for k, lifts, at_goal in tries:
         M = motions[k]
         T_goal = _goal(c, M)
-        lifts, why = goal_check.ending(c, T_goal, k)
-        if why:
-            continue
         T_set = goal_check.set_down(c, T_goal, k)
-        goal, why = _goal_ik(robot, T_set, lifts, qs[-1], accepts)
+        goal, why = _goal_ik(robot, T_set, lifts, qs[-1], accepts, at_goal)
         if goal:
             release = goal[1] if len(goal) > 1 else goal[0]  # (pose, joints) where the fingers let go
             width = goal_check.release_width(c, release[0], accepts.released(release[1]))
@@ -505,31 +506,41 @@ def _turns_to_try(c: Candidate, motions: list[np.ndarray], robot: RobotModel) ->
 
 
 def _goal_ik(
-    robot: RobotModel, T_goal: np.ndarray, lifts: tuple[float, ...], q_from: np.ndarray, accepts: _Acceptance
+    robot: RobotModel,
+    T_goal: np.ndarray,
+    lifts: tuple[float, ...],
+    q_from: np.ndarray,
+    accepts: _Acceptance,
+    at_goal: bool = True,
 ) -> tuple[list[tuple[np.ndarray, np.ndarray]], str]:
     """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last and drawn towards
     the contact's joints q_from (not home): a solution on another branch of the arm makes the carry swing it
     round, and what the fingers hold by friction alone (a plate by its rim) is flung out; ([], why) if one has
-    none. A grasp set down from above its goal (lifts) never takes the goal pose itself: where that has no
-    accepted IK (a can stood up by its middle puts the wrist below the workspace floor; its release, higher, does
-    not), the poses above are solved from q_from and the release's joints stand for the goal's."""
-    out: list[tuple[np.ndarray, np.ndarray | None]] = []
+    none. at_goal False, for a grasp let go above its goal (it never takes the goal pose itself: a can stood up by
+    its middle puts the wrist below the workspace floor there, its release higher does not): the poses above are
+    solved from q_from, and the goal's joints, for the record only, from the release's without the gate's
+    acceptance (the release's where it has none)."""
+    poses = []
     for lift in (0.0, *lifts):
         T = T_goal.copy()
         T[2, 3] += lift
-        accept = accepts.of("goal" if not out else "place")
-        seed = out[-1][1] if out and out[-1][1] is not None else q_from
-        r = robot.ik(T, seed, preferred_q=q_from, settings=GOAL_IK_SETTINGS, accept=accept)
-        if not r.success and not out and lifts:
-            out.append((T, None))
+        poses.append(T)
+    out = []
+    for i, T in enumerate(poses):
+        if i == 0 and not at_goal:
             continue
+        accept = accepts.of("goal" if i == 0 else "place")
+        seed = out[-1][1] if out else q_from
+        r = robot.ik(T, seed, preferred_q=q_from, settings=GOAL_IK_SETTINGS, accept=accept)
         if not r.success:
-            what = "goal pose" if not out else "pose to let go from" if len(out) == 1 else "pose above the place"
-            held = " with the object in the hand" if out and accept is not None else ""
+            what = ("goal pose", "pose to let go from", "pose above the place")[min(i, 2)]
+            held = " with the object in the hand" if i and accept is not None else ""
             return [], f"{what} out of reach{held}"
         out.append((T, r.q))
-    if out[0][1] is None:
-        out[0] = (out[0][0], out[1][1])
+    if not at_goal:
+        q_release = out[0][1]
+        r = robot.ik(poses[0], q_release, preferred_q=q_release, settings=GOAL_IK_SETTINGS)
+        out.insert(0, (poses[0], r.q if r.success else q_release))
     return out, ""
 
 
