@@ -145,16 +145,22 @@ def plan_contacts(
             -(w["antipodal"] * c.antipodal + w["centred"] * c.centred + w["approach"] * c.approach),
         )
     )
-    plans = []
     seed = robot.home_q if q_seed is None else np.asarray(q_seed, dtype=np.float64)
-    for c in geometric[: cfg.ik_candidates]:
-        try:
-            plans += _reachable_plans(c, cfg, robot, seed, motions, goal_check, collision_world, placing)
-        except _Unreachable as e:
-            rejected[e.reason] += 1
-        if len(plans) >= cfg.keep:
-            plans = plans[: cfg.keep]
+    # a grasp let go above its goal never takes the goal pose itself: only when no candidate has accepted IK there
+    # are the poses it does take enough (_goal_ik), so plans that worked before keep their ranks
+    for at_goal in (True, False) if mode == "grasp" and cfg.place_lifts_m else (True,):
+        plans, unreachable = [], Counter()
+        for c in geometric[: cfg.ik_candidates]:
+            try:
+                plans += _reachable_plans(c, cfg, robot, seed, motions, goal_check, collision_world, placing, at_goal)
+            except _Unreachable as e:
+                unreachable[e.reason] += 1
+            if len(plans) >= cfg.keep:
+                plans = plans[: cfg.keep]
+                break
+        if plans:
             break
+    rejected.update(unreachable)
     rejected["not checked for reachability (enough plans)"] += max(0, len(geometric) - cfg.ik_candidates)
     # the object let go lowest first; then the grounded motion (the verification's registration may see part of a
     # turn about a body's axis), then the best grasp, the least turn breaking ties: a contact's turn is the first
@@ -401,6 +407,7 @@ def _reachable_plans(
     goal_check: _GoalCheck,
     world,
     placing: _Placing,
+    at_goal: bool = True,
 ) -> list[ContactPlan]:
     """The candidate's plan for each wrist twin whose poses all have IK (under the first object motion that has),
     the twin nearer the hand's present turn first: the other may be half a turn of joint 7 away, where a path is
@@ -412,7 +419,7 @@ def _reachable_plans(
     for twin in twins:
         try:
             accepts = _Acceptance(twin, cfg, robot, world, placing)
-            plans.append(_twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing))
+            plans.append(_twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing, at_goal))
         except _Unreachable as e:
             first = first or e
     if not plans:
@@ -464,10 +471,10 @@ def _twin_plan(
     goal_check: _GoalCheck,
     accepts: _Acceptance,
     placing: _Placing,
+    at_goal: bool = True,
 ) -> ContactPlan:
-    """The plan of this twin under the first motion whose goal passes the goal checks and has IK; else, for a grasp
-    let go above its goal, the first whose release and the pose above it have IK though the goal pose itself has
-    none the gate accepts (_goal_ik); else _Unreachable."""
+    """The plan of this twin under the first motion whose goal passes the goal checks and has IK (at_goal False:
+    whose release and the pose above it have IK, the goal pose itself a seed only, _goal_ik); else _Unreachable."""
     T_pre = _pre_contact(c, cfg.pre_distance_m)
     qs = []
     arc = [(T, "arc") for T in c.via]
@@ -477,12 +484,12 @@ def _twin_plan(
             raise _Unreachable(f"{where} pose out of reach")
         qs.append(r.q)
     first = ""
-    endings = [(k, *goal_check.ending(c, _goal(c, motions[k]), k)) for k in _turns_to_try(c, motions, robot)]
-    tries = [(k, lifts, True) for k, lifts, why in endings if not why]
-    tries += [(k, lifts, False) for k, lifts, _ in tries if lifts]  # the goal pose only a seed: the second pass
-    for k, lifts, at_goal in tries:
+    for k in _turns_to_try(c, motions, robot):
         M = motions[k]
         T_goal = _goal(c, M)
+        lifts, why = goal_check.ending(c, T_goal, k)
+        if why:
+            continue
         T_set = goal_check.set_down(c, T_goal, k)
         goal, why = _goal_ik(robot, T_set, lifts, qs[-1], accepts, at_goal)
         if goal:
