@@ -86,9 +86,6 @@ def contact_plans(ctx: RunContext, clouds: SceneClouds, robot: RobotModel, q_sta
         collision_world=CollisionWorld(robot, ctx.profile.safety, points=clouds.scene, table=False),
         viewpoint=ctx.frame0.T_base_camera[:3, 3],
         object_name=ctx.goal.target,
-        # a grasp's release and the pose above it with the table, as the carry's gate sees them: a can stood up
-        # holds the hand sideways and low, where the wrist (link6) reaches the table before the fingers do
-        release_world=CollisionWorld(robot, ctx.profile.safety, points=clouds.scene) if mode == "grasp" else None,
     )
     ctx.record.summary.contact = ContactRecord(
         mode=mode,
