@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from pipeline.contact.gripper import UNIT_CORNERS, GripperBoxes
+from pipeline.contact.gripper import GripperBoxes
 from pipeline.contact.held import held_box
 from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
 from pipeline.contact.sampling import (
@@ -269,16 +269,12 @@ class _GoalCheck:
                 return "hits the scene"
         return ""
 
-    def _held_against(self, held: Primitive, T_base_tcp: np.ndarray) -> str:
-        """What the object's box in the hand at T_base_tcp (grown by the gate's clearance) touches: the table (an
-        object stood up is held with its box's far corner lowest, below its set-down height when its goal leans),
-        the scene, or nothing ("")."""
-        T_base_geom = T_base_tcp @ held.T_link_geom
-        if transform_points(T_base_geom, UNIT_CORNERS * np.asarray(held.size))[:, 2].min() < 0.0:
-            return "table"
-        if len(self.scene) and held.contains(transform_points(np.linalg.inv(T_base_geom), self.scene)).any():
-            return "scene"
-        return ""
+    def _held_clear(self, held: Primitive, T_base_tcp: np.ndarray) -> bool:
+        """The object's box in the hand at T_base_tcp keeps the gate's clearance from the scene."""
+        if not len(self.scene):
+            return True
+        T_geom_base = np.linalg.inv(T_base_tcp @ held.T_link_geom)
+        return not held.contains(transform_points(T_geom_base, self.scene)).any()
 
     def set_down(self, c: Candidate, T_goal: np.ndarray, k: int) -> np.ndarray:
         """The pose a grasp sets the object down from under the k-th motion: T_goal, or for a flat object laid on
@@ -312,8 +308,8 @@ class _GoalCheck:
             T = T_set.copy()
             T[2, 3] += lifts[0] + extra
             why = self._clear(T, widths, self.releasing)
-            against = "" if why else self._held_against(held, T)
-            why = why or (f"holds the object against the {against}" if against else "")
+            if not why and not self._held_clear(held, T):
+                why = "holds the object against the scene"
             if not why:
                 return tuple(h + float(extra) for h in lifts), ""
         return (), f"gripper {why} at every release height"
