@@ -145,16 +145,22 @@ def plan_contacts(
             -(w["antipodal"] * c.antipodal + w["centred"] * c.centred + w["approach"] * c.approach),
         )
     )
-    plans = []
     seed = robot.home_q if q_seed is None else np.asarray(q_seed, dtype=np.float64)
-    for c in geometric[: cfg.ik_candidates]:
-        try:
-            plans += _reachable_plans(c, cfg, robot, seed, motions, goal_check, collision_world, placing)
-        except _Unreachable as e:
-            rejected[e.reason] += 1
-        if len(plans) >= cfg.keep:
-            plans = plans[: cfg.keep]
+    # a grasp let go above its goal never takes the goal pose itself: only when no candidate has accepted IK there
+    # are the poses it does take enough (_goal_ik), so plans that worked before keep their ranks
+    for at_goal in (True, False) if mode == "grasp" and cfg.place_lifts_m else (True,):
+        plans, unreachable = [], Counter()
+        for c in geometric[: cfg.ik_candidates]:
+            try:
+                plans += _reachable_plans(c, cfg, robot, seed, motions, goal_check, collision_world, placing, at_goal)
+            except _Unreachable as e:
+                unreachable[e.reason] += 1
+            if len(plans) >= cfg.keep:
+                plans = plans[: cfg.keep]
+                break
+        if plans:
             break
+    rejected.update(unreachable)
     rejected["not checked for reachability (enough plans)"] += max(0, len(geometric) - cfg.ik_candidates)
     # the object let go lowest first; then the grounded motion (the verification's registration may see part of a
     # turn about a body's axis), then the best grasp, the least turn breaking ties: a contact's turn is the first
@@ -397,6 +403,7 @@ def _reachable_plans(
     goal_check: _GoalCheck,
     world,
     placing: _Placing,
+    at_goal: bool = True,
 ) -> list[ContactPlan]:
     """The candidate's plan for each wrist twin whose poses all have IK (under the first object motion that has),
     the twin nearer the hand's present turn first: the other may be half a turn of joint 7 away, where a path is
@@ -408,7 +415,7 @@ def _reachable_plans(
     for twin in twins:
         try:
             accepts = _Acceptance(twin, cfg, robot, world, placing)
-            plans.append(_twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing))
+            plans.append(_twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing, at_goal))
         except _Unreachable as e:
             first = first or e
     if not plans:
@@ -420,7 +427,8 @@ class _Acceptance:
     """Which IK solutions a twin's poses accept, in the gate's scene (collision_world; none: every solution).
 
     approach: the pre-contact, contact and arc poses, free with the fingers at the approach opening; goal: the goal
-    pose itself, free of self-collision, workspace and keep-out (the object is set down from above it); place: a
+    pose itself, free of self-collision, workspace and keep-out (the object is set down from above it: a grasp
+    with place lifts falls back to it only as a seed, _goal_ik); place: a
     grasp's release and the pose above it, free of everything, the object in the hand (the carry's world), the
     fingers holding it and opened to let go."""
 
@@ -459,9 +467,10 @@ def _twin_plan(
     goal_check: _GoalCheck,
     accepts: _Acceptance,
     placing: _Placing,
+    at_goal: bool = True,
 ) -> ContactPlan:
-    """The plan of this twin under the first motion whose goal passes the goal checks and has IK; else
-    _Unreachable."""
+    """The plan of this twin under the first motion whose goal passes the goal checks and has IK (at_goal False:
+    whose release and the pose above it have IK, the goal pose itself a seed only, _goal_ik); else _Unreachable."""
     T_pre = _pre_contact(c, cfg.pre_distance_m)
     qs = []
     arc = [(T, "arc") for T in c.via]
@@ -478,7 +487,7 @@ def _twin_plan(
         if why:
             continue
         T_set = goal_check.set_down(c, T_goal, k)
-        goal, why = _goal_ik(robot, T_set, lifts, qs[-1], accepts)
+        goal, why = _goal_ik(robot, T_set, lifts, qs[-1], accepts, at_goal)
         if goal:
             release = goal[1] if len(goal) > 1 else goal[0]  # (pose, joints) where the fingers let go
             width = goal_check.release_width(c, release[0], accepts.released(release[1]))
@@ -504,24 +513,41 @@ def _turns_to_try(c: Candidate, motions: list[np.ndarray], robot: RobotModel) ->
 
 
 def _goal_ik(
-    robot: RobotModel, T_goal: np.ndarray, lifts: tuple[float, ...], q_from: np.ndarray, accepts: _Acceptance
+    robot: RobotModel,
+    T_goal: np.ndarray,
+    lifts: tuple[float, ...],
+    q_from: np.ndarray,
+    accepts: _Acceptance,
+    at_goal: bool = True,
 ) -> tuple[list[tuple[np.ndarray, np.ndarray]], str]:
     """(pose, IK) of the goal pose and of the poses `lifts` above it, each seeded by the last and drawn towards
     the contact's joints q_from (not home): a solution on another branch of the arm makes the carry swing it
     round, and what the fingers hold by friction alone (a plate by its rim) is flung out; ([], why) if one has
-    none."""
-    out = []
+    none. at_goal False, for a grasp let go above its goal (it never takes the goal pose itself: a can stood up by
+    its middle puts the wrist below the workspace floor there, its release higher does not): the poses above are
+    solved from q_from, and the goal's joints, for the record only, from the release's without the gate's
+    acceptance (the release's where it has none)."""
+    poses = []
     for lift in (0.0, *lifts):
         T = T_goal.copy()
         T[2, 3] += lift
-        accept = accepts.of("goal" if not out else "place")
+        poses.append(T)
+    out = []
+    for i, T in enumerate(poses):
+        if i == 0 and not at_goal:
+            continue
+        accept = accepts.of("goal" if i == 0 else "place")
         seed = out[-1][1] if out else q_from
         r = robot.ik(T, seed, preferred_q=q_from, settings=GOAL_IK_SETTINGS, accept=accept)
         if not r.success:
-            what = "goal pose" if not out else "pose to let go from" if len(out) == 1 else "pose above the place"
-            held = " with the object in the hand" if out and accept is not None else ""
+            what = ("goal pose", "pose to let go from", "pose above the place")[min(i, 2)]
+            held = " with the object in the hand" if i and accept is not None else ""
             return [], f"{what} out of reach{held}"
         out.append((T, r.q))
+    if not at_goal:
+        q_release = out[0][1]
+        r = robot.ik(poses[0], q_release, preferred_q=q_release, settings=GOAL_IK_SETTINGS)
+        out.insert(0, (poses[0], r.q if r.success else q_release))
     return out, ""
 
 
