@@ -206,7 +206,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     # shading: a ball has no level face, a block is level faces with steps between them (little ramp), a standing
     # can a level top above a side shaded across
     no_level_face = _shaded(c.level_share, 0.0, 0.1, 0.1)
-    curved = 1.0 if c.ramp_share is None else _within(c.ramp_share, 0.35, 1.0, 0.1)
+    curved = _shaded(c.ramp_share, 0.35, 1.0, 0.1)
     standing_can = (
         _within(c.aspect, 0.45, 0.9, 0.1)
         * (0.0 if c.ramp_share is None else curved)
