@@ -12,7 +12,7 @@ worker), and the state each failure ended in. With --stepped the physics is adva
 loaded machine cannot starve the simulated robot (wall times then say nothing of real time). Use seeds you did not
 tune on.
 
-    python bench/generated_runs.py --seeds 2000:2040 --out gen.json [--runs-dir campaigns/gen] [--workers 2] [--quick]
+    python bench/generated_runs.py --seeds 2000:2040|a,b,c --out gen.json [--runs-dir campaigns/gen] [--workers 2] [--quick]
         [--stepped]
 """
 
@@ -72,15 +72,19 @@ def main() -> int:
     from runtime.campaign.pools import ProcessPool
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default="2000:2040", help="A:B, the seeds A..B-1")
+    parser.add_argument("--seeds", default="2000:2040", help="A:B, the seeds A..B-1, or a list a,b,c")
     parser.add_argument("--quick", action="store_true", help="the first 4 seeds only")
     parser.add_argument("--runs-dir", type=Path, default=None, help="the campaign folder (kept; resumable)")
     parser.add_argument("--workers", type=int, default=1, help="runs at a time")
     parser.add_argument("--stepped", action="store_true", help="the physics advanced by the executor's clock")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
-    a, b = (int(x) for x in args.seeds.split(":"))
-    seeds = tuple(range(a, min(b, a + 4) if args.quick else b))
+    if ":" in args.seeds:
+        a, b = (int(x) for x in args.seeds.split(":"))
+        seeds = tuple(range(a, b))
+    else:
+        seeds = tuple(int(x) for x in args.seeds.split(","))
+    seeds = seeds[:4] if args.quick else seeds
     console = Console()
     spec = CampaignSpec(
         name="generated", config=str(CONFIG), tasks=("gen",), seeds=seeds, trials=1, stepped=args.stepped
