@@ -10,12 +10,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from drivers.types import RGBDFrame
 from pipeline.grounding.compare import Symmetry, object_centre, object_symmetry
 from pipeline.grounding.ground import ground
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
+from pipeline.grounding.umeyama import Similarity
 from pipeline.perception.features import FeatureExtractor
+
+HINT_TWIST_DEG, HINT_TWIST_STEP_DEG = 30.0, 10.0  # the expected motion is tried turned this far, in these steps
 
 
 @dataclass(frozen=True)
@@ -45,6 +49,18 @@ def _points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
     return frame.intrinsics.unproject_depth_image(frame.depth)[mask & np.isfinite(frame.depth)]
 
 
+def expected_twists(R: np.ndarray, t: np.ndarray, centre: np.ndarray, up: np.ndarray) -> list[Similarity]:
+    """The expected motion (camera frame) and the same motion turned about the vertical `up` through where it puts
+    the object's centre by up to HINT_TWIST_DEG: a turn often ends a few degrees off, beyond where ICP alone
+    converges from the goal."""
+    lands = R @ centre + t
+    out = []
+    for deg in np.arange(-HINT_TWIST_DEG, HINT_TWIST_DEG + 1e-9, HINT_TWIST_STEP_DEG):
+        R_hint = Rotation.from_rotvec(np.radians(deg) * up).as_matrix() @ R
+        out.append(Similarity(1.0, R_hint, lands - R_hint @ centre))
+    return out
+
+
 def measure_achieved(
     *,
     before: RGBDFrame,
@@ -54,9 +70,16 @@ def measure_achieved(
     anchor_before: np.ndarray | None,
     features: FeatureExtractor,
     config: GroundingConfig,
+    expected: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> AchievedMotion:
     """The target's motion from `before` to `after` (same camera pose; masks of the target in each, and for a
-    hinged part the initial mask of what it is hinged to). A refused registration comes back with ok False."""
+    hinged part the initial mask of what it is hinged to). A refused registration comes back with ok False.
+
+    `expected` (R, t): the motion the object should have made (the goal's, when verifying), a hint to the
+    registration: polished on the captures and taken when it explains them as well as the best motion found, as it
+    does when the object is where it should be up to a turn no view shows (a uniform box turned half way, a cube a
+    quarter). A near-symmetric shape otherwise lets the registration settle on a twin tipped over or turned, which
+    the comparison would then judge."""
     points = _points(before, mask_before)
     symmetry = None if anchor_before is not None else object_symmetry(points)
     centre = object_centre(points)
@@ -75,5 +98,7 @@ def measure_achieved(
         intrinsics=before.intrinsics,
         anchor0=anchor_before,
     )
-    motion = ground(inp, features, config, T_base_camera=before.T_base_camera)
+    up_camera = before.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+    hints = [] if expected is None else expected_twists(*expected, centre, up_camera)
+    motion = ground(inp, features, config, T_base_camera=before.T_base_camera, hints=hints)
     return AchievedMotion(motion.R, motion.t, centre, symmetry, motion)

@@ -8,6 +8,8 @@ on the masked clouds; refuse, with a reason, whenever a check fails.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -61,8 +63,10 @@ def ground(
     features: FeatureExtractor,
     config: GroundingConfig | None = None,
     T_base_camera: np.ndarray | None = None,
+    hints: Sequence[Similarity] = (),
 ) -> ObjectMotion:
-    """ObjectMotion (x_goal = R x_init + t, camera frame) or a refusal with its reason."""
+    """ObjectMotion (x_goal = R x_init + t, camera frame) or a refusal with its reason. `hints`: motions known to
+    be likely (select_motion), taken when the views cannot tell them from the best found."""
     cfg = config or GroundingConfig()
     if cfg.work_width_px is not None and cfg.work_width_px < inp.intrinsics.width:
         inp = inp.resized(cfg.work_width_px)
@@ -100,7 +104,7 @@ def ground(
     up = _up_direction(points0[background & np.isfinite(depth0)], T_base_camera, rng)
     sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
     candidates = fits + face_hypotheses(view0, view1) + sweep
-    view_score, sim = select_motion(candidates, view0, view1, K, size, cfg)
+    view_score, sim, hinted = select_motion(candidates, view0, view1, K, size, cfg, hints)
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())
@@ -148,7 +152,12 @@ def ground(
         scale=sim.scale,
         residual_m=rms,
         confidence=confidence,
-        details={"depth_alignment": align.__dict__, "view_score": view_score, "threshold_m": threshold},
+        details={
+            "depth_alignment": align.__dict__,
+            "view_score": view_score,
+            "threshold_m": threshold,
+            **({"hint_taken": True} if hinted else {}),
+        },
         **common,
     )
 

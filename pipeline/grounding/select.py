@@ -4,6 +4,8 @@ the goal cloud (ICP fitness); the product of the two is its score."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from drivers.types import CameraIntrinsics
@@ -14,25 +16,48 @@ from pipeline.grounding.verify import View, view_consistency
 
 MAX_ICP_TURN_DEG = 15.0  # ICP may polish a hypothesis, not replace it
 MAX_ICP_SHIFT_REL = 0.25
+HINT_MARGIN = 0.02  # view agreement within this of the best: the views do not tell the motions apart
 
 
 def select_motion(
-    candidates: list[Similarity], view0: View, view1: View, K: CameraIntrinsics, size: float, cfg: GroundingConfig
-) -> tuple[float, Similarity]:
-    """(view agreement, motion) of the best candidate after refinement."""
+    candidates: list[Similarity],
+    view0: View,
+    view1: View,
+    K: CameraIntrinsics,
+    size: float,
+    cfg: GroundingConfig,
+    hints: Sequence[Similarity] = (),
+) -> tuple[float, Similarity, bool]:
+    """(view agreement, motion, whether it is a hint's) of the best candidate after refinement.
+
+    `hints` (motions known to be likely, such as the goal's when verifying) skip the coarse cut, and the best of
+    them is taken when its view agreement alone is within HINT_MARGIN of the winner's: the views do not tell the two
+    apart (a uniform box turned half way looks the same), and a turn that shows other faces loses ICP fitness (the
+    faces first seen turn out of view) that a twin keeping the seen faces in view does not."""
     coarse = max(cfg.inlier_min_m, 0.1 * size)
     ranked = sorted(candidates, key=lambda h: -view_consistency(h, view0, view1, K, coarse))[: cfg.refine_top]
     fine = max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
     target = IcpTarget(view1.cloud, view1.normals) if cfg.icp else None
-    scored = []
-    for hypothesis in ranked:
-        refined = _refine(hypothesis, view0.cloud, target, size, cfg) if target else (hypothesis, 1.0)
-        if refined is not None:
-            sim, fitness = refined
-            scored.append((view_consistency(sim, view0, view1, K, fine) * fitness, sim))
-    if not scored:
-        return 0.0, ranked[0]
-    return max(scored, key=lambda x: x[0])
+
+    def scored(hypotheses: Sequence[Similarity]) -> list[tuple[float, float, Similarity]]:
+        """(view agreement, ICP fitness, refined motion) of each hypothesis the clouds meet on."""
+        out = []
+        for hypothesis in hypotheses:
+            refined = _refine(hypothesis, view0.cloud, target, size, cfg) if target else (hypothesis, 1.0)
+            if refined is not None:
+                sim, fitness = refined
+                out.append((view_consistency(sim, view0, view1, K, fine), fitness, sim))
+        return out
+
+    found, hinted = scored(ranked), scored(hints)
+    if hinted:
+        hint = max(hinted, key=lambda x: x[0])
+        if not found or hint[0] >= max(found, key=lambda x: x[0] * x[1])[0] - HINT_MARGIN:
+            return hint[0] * hint[1], hint[2], True
+    if not found:
+        return (0.0, ranked[0], False) if ranked else (0.0, hints[0], True)
+    agreement, fitness, sim = max(found, key=lambda x: x[0] * x[1])
+    return agreement * fitness, sim, False
 
 
 def _refine(

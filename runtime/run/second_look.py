@@ -118,6 +118,7 @@ def look_again(
         anchor_before=goal.mask_anchor,
         features=features,
         config=ctx.profile.pipeline.grounding,
+        expected=(np.eye(3), np.zeros(3)),  # still where it was, up to a turn no view shows
     )
     drift_record = None if drift.registration is None else MotionRecord.of(drift.registration)
     if not drift.ok:

@@ -64,6 +64,7 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         anchor_before=goal.mask_anchor,  # a hinged part: measured as a turn about it, like its goal
         features=features,
         config=ctx.profile.pipeline.grounding,
+        expected=(ctx.motion.R, ctx.motion.t),
     )
     if achieved.registration is None:
         record = AchievedRecord(method="ball_centre", ball_centre_shift_m=achieved.t.tolist())
