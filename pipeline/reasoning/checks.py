@@ -95,15 +95,30 @@ def describe_framing(f: Framing) -> str:
 
 SAME_AREA_RATIO = 2.0  # a region this much larger or smaller than the target was is not the target moved
 SAME_COLOUR = 40.0  # mean RGB distance within which a region is of the target's colour (shading, blending)
+UNCHANGED_LEVELS = 12.0  # a pixel within this many levels of the first image (blurred) did not change ...
+UNCHANGED_SHARE = 0.8  # ... and a region this much of whose pixels off the target's first place did not, was there
+
+
+def unchanged_pixels(rgb_init: np.ndarray, rgb: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels of `rgb` that still look as in `rgb_init` (blurred, within UNCHANGED_LEVELS or three
+    times the image's median change, whichever is more: an editor redraws the whole image with a little drift)."""
+    a = cv2.GaussianBlur(rgb_init, (5, 5), 0).astype(np.int16)
+    b = cv2.GaussianBlur(rgb, (5, 5), 0).astype(np.int16)
+    change = np.abs(a - b).max(axis=2)
+    return change <= max(UNCHANGED_LEVELS, 3.0 * float(np.median(change)))
 
 
 def like_the_target(detections: list[Detection], rgb_init: np.ndarray, mask_init: np.ndarray, rgb: np.ndarray):
-    """Of several regions a phrase matches in the candidate, the one that is the target moved: the only one whose
-    area is within SAME_AREA_RATIO of the target's in the initial image and whose mean colour is within SAME_COLOUR
-    of its; all of them when none or several are (an editor that left the object where it was and drew it again
-    is refused)."""
+    """Of several regions a phrase matches in a later image (a goal candidate, the capture after execution), the
+    one that is the target: regions that were already there (their pixels off the target's first place unchanged:
+    a part of another object, left uncovered when the target was put on it, that now reads as the phrase) are not;
+    of the rest, the only one whose area is within SAME_AREA_RATIO of the target's in the initial image and whose
+    mean colour is within SAME_COLOUR of its; all of them when none or several are (an editor that left the object
+    where it was and drew it again is refused)."""
     if len(detections) < 2:
         return detections
+    still = unchanged_pixels(rgb_init, rgb) & ~mask_init
+    detections = [d for d in detections if still[d.mask].mean() < UNCHANGED_SHARE] or detections
     area0 = max(int(mask_init.sum()), 1)
     colour0 = rgb_init[mask_init].reshape(-1, 3).astype(np.float64).mean(axis=0)
 

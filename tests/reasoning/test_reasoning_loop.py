@@ -198,18 +198,22 @@ def test_of_several_matches_in_the_goal_image_the_one_like_the_target_is_taken()
     from pipeline.perception.segmenter import Detection, box_of
     from pipeline.reasoning.checks import like_the_target
 
-    rgb = np.zeros((60, 80, 3), np.uint8)
-    target0 = np.zeros((60, 80), bool)
+    target0, moved, bottle, ball, twin = (np.zeros((60, 80), bool) for _ in range(5))
     target0[10:20, 10:20] = True  # 100 px, green
-    rgb[target0] = (60, 200, 60)
-    moved, bottle, ball = (np.zeros((60, 80), bool) for _ in range(3))
     moved[30:40, 50:60] = True  # the target moved: its size and colour
     bottle[5:45, 30:45] = True  # a green bottle, six times larger
     ball[45:55, 5:15] = True  # a ball of its size, another green
-    rgb[moved], rgb[bottle], rgb[ball] = (60, 200, 60), (30, 100, 40), (20, 120, 20)
+    twin[45:55, 65:75] = True  # a block of its size and colour, already there
+    scene = np.full((60, 80, 3), 128, np.uint8)
+    scene[bottle], scene[ball], scene[twin] = (30, 100, 40), (20, 120, 20), (60, 200, 60)
+    initial, goal = scene.copy(), scene.copy()
+    initial[target0], goal[moved] = (60, 200, 60), (60, 200, 60)
     det = lambda m: Detection(m, 1.0, box_of(m), "green")  # noqa: E731
-    (taken,) = like_the_target([det(bottle), det(moved)], rgb, target0, rgb)
+    (taken,) = like_the_target([det(bottle), det(moved)], initial, target0, goal)
     assert taken.mask is moved
-    assert len(like_the_target([det(bottle), det(ball)], rgb, target0, rgb)) == 2  # the ball is not its colour
+    (taken,) = like_the_target([det(twin), det(moved)], initial, target0, goal)  # the twin was there: not it
+    assert taken.mask is moved
+    assert len(like_the_target([det(bottle), det(ball)], initial, target0, goal)) == 2  # neither is the target
+    goal[target0] = (60, 200, 60)
     twice = [det(moved), det(target0)]  # drawn again, left where it was too: refused as two
-    assert len(like_the_target(twice, rgb, target0, rgb)) == 2
+    assert len(like_the_target(twice, initial, target0, goal)) == 2
