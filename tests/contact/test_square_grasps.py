@@ -78,3 +78,25 @@ def test_an_upright_can_keeps_every_angle_of_the_sweep():
     grasps = from_above(points, normals)
     angles = sorted({round(closing_deg(T)) % 180 for T in grasps})
     assert len(angles) >= 10  # the 12 angles of the sweep, each square to the round side (within its tolerance)
+
+
+EYE = np.array([1.1, 0.0, 0.7])  # a camera in front of the table, above it
+
+
+def seen_block(yaw_deg: float, size=(0.035, 0.04, 0.062), n=6000, seed=0):
+    """A block's faces the camera at EYE sees (the top and two sides), 0.8 mm noise, and the normals
+    estimate_normals gives them (blended across the edges, as on a capture)."""
+    from pipeline.contact.sampling import estimate_normals
+
+    eye = EYE
+    points, normals = block(yaw_deg, size, n, seed)
+    seen = np.einsum("ij,ij->i", normals, eye - points) > 0
+    points = points[seen] + np.random.default_rng(seed).normal(0, 0.0008, (seen.sum(), 3))
+    return points, estimate_normals(points, 0.01, eye)
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 21.0, 42.0, 56.0, 83.0])
+def test_a_block_seen_from_one_side_is_grasped_square_from_every_sweep_angle(yaw_deg):
+    grasps = from_above(*seen_block(yaw_deg))
+    assert grasps, "no grasp from above"
+    assert max(off_deg(closing_deg(T), yaw_deg, 90.0) for T in grasps) < 3.0
