@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
 
 from pipeline.contact.tipping import flat_normal
 from pipeline.contact.types import ContactConfig, ContactMode
@@ -29,7 +30,7 @@ SUPPORT_REACH_M = 0.04  # ... within this of its outline (the run's scene loses 
 SUPPORT_POINTS = 5  # ... when there are this many (the gate's cloud has a point per cm)
 SUPPORT_CELL_M = 0.01  # the gate sees a support as points, in cells this large
 TABLE_CLEAR_M = 0.002  # a push's padded fingertips this far above the table
-SQUARE_ROUNDS = 4  # _squared: turns taken again from the pads' new sides
+FACES_MIN_CONCENTRATION = 0.65  # face_yaw: sides this concentrated on one direction (and those square to it) are flat
 SQUARE_MIN_DEG = 1.0  # a grasp's closing axis this close to the faces' normals is square already
 # a grasp from above pinching the object this many times wider than the narrowest pinch at the same spot closes
 # across a flat part's slant (a plate standing in a rack cut at 60 deg): the part turns in the fingers or slips out
@@ -94,40 +95,53 @@ def _pinch(points: np.ndarray, normals: np.ndarray, T: np.ndarray) -> tuple[floa
 
 def _squared(points: np.ndarray, normals: np.ndarray, T: np.ndarray) -> np.ndarray:
     """T turned about its approach axis so the closing axis lies along the normal of the faces between the pads:
-    the weighted mean direction, across the approach axis, of the contact sides' outward normals (the near side's
-    reversed; a point facing up or down weighs little), a face and those square to it counted as one (angles taken
-    four times: pads on a block's corner turn to the nearer pair of faces). The pads' sides change as T turns
-    (slanted across a block they end on its corners, where the estimated normals blend both faces), so the turn is
-    taken again from the new sides until it is below SQUARE_MIN_DEG, up to SQUARE_ROUNDS times: from one round, a
-    grasp across a block seen from one side ended up to 40 deg off its faces, and closing turned the block by that
-    much (a rotate ended 12 deg short). T itself when it is square already or the pads close on no seen side."""
-    out = T
-    for _ in range(SQUARE_ROUNDS):
-        turn = _square_turn(points, normals, out)
-        if abs(turn) < np.radians(SQUARE_MIN_DEG):
-            break
-        c, s = np.cos(turn), np.sin(turn)
-        out = out.copy()
-        out[:3, :3] = out[:3, :3] @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    return out
-
-
-def _square_turn(points: np.ndarray, normals: np.ndarray, T: np.ndarray) -> float:
-    """The turn [rad] about T's approach axis that squares its closing axis to the pads' sides (_squared); 0 when
-    the pads close on no seen side."""
+    the weighted median direction, across the approach axis, of the contact sides' outward normals (the near
+    side's reversed; a point facing up or down weighs little), each folded to within 45 deg of the closing axis (a
+    face and those square to it are one choice: pads on a block's corner turn to the nearer pair of faces). T
+    itself when it is square already or the pads close on no seen side."""
     local = (points - T[:3, 3]) @ T[:3, :3]
     slab = (np.abs(local[:, 0]) < PAD_HALF_WIDTH_M) & (local[:, 2] > -PAD_LENGTH_M) & (local[:, 2] < 0.003)
     if slab.sum() < 5:
-        return 0.0
+        return T
     y, n = local[slab, 1], normals[slab] @ T[:3, :3]  # normals in the TCP frame
     lo, hi = y.min(), y.max()
     facing = np.concatenate([-n[y < lo + 0.004], n[y > hi - 0.004]])[:, :2]  # across the approach axis
     weight = np.linalg.norm(facing, axis=1)
     if weight.sum() < 1e-9:
-        return 0.0
-    angle = np.arctan2(-facing[:, 0], facing[:, 1])  # from TCP y
-    # the mean direction with a face and those square to it as one: of the angles taken four times
-    return float(np.arctan2(weight @ np.sin(4 * angle), weight @ np.cos(4 * angle))) / 4
+        return T
+    angle = (np.arctan2(-facing[:, 0], facing[:, 1]) + np.pi / 4) % (np.pi / 2) - np.pi / 4  # from TCP y
+    order = np.argsort(angle)
+    cumulative = np.cumsum(weight[order])
+    turn = float(angle[order][np.searchsorted(cumulative, 0.5 * cumulative[-1])])
+    if abs(turn) < np.radians(SQUARE_MIN_DEG):
+        return T
+    c, s = np.cos(turn), np.sin(turn)
+    out = T.copy()
+    out[:3, :3] = T[:3, :3] @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return out
+
+
+def face_yaw(normals: np.ndarray) -> float | None:
+    """The direction [rad, base frame] of the object's flat sides, up to quarter turns, or None when its sides are
+    round or irregular: the mean of the outward normals' directions across the table, taken four times (a face and
+    those square to it are one), each weighted by how far it lies across the table (a top weighs nothing). A block
+    (two sides seen, edges blended) concentrates 0.7-0.9 of the weight on one direction, a lying can or bottle too
+    (square to its axis), an upright can 0.1-0.5."""
+    weight = np.linalg.norm(normals[:, :2], axis=1)
+    if weight.sum() < 1e-9:
+        return None
+    mean = weight @ np.exp(4j * np.arctan2(normals[:, 1], normals[:, 0])) / weight.sum()
+    return float(np.angle(mean)) / 4 if abs(mean) >= FACES_MIN_CONCENTRATION else None
+
+
+def _square_to_faces(T: np.ndarray, faces_rad: float) -> np.ndarray:
+    """T turned about its (vertical) approach axis so its closing axis lies along the nearest of the faces' normals:
+    pads closed at a slant on a block's faces turn it square to them, by the slant."""
+    closing = np.arctan2(T[1, 1], T[0, 1])
+    turn = (faces_rad - closing + np.pi / 4) % (np.pi / 2) - np.pi / 4  # about the base's up axis
+    out = T.copy()
+    out[:3, :3] = Rotation.from_rotvec([0.0, 0.0, turn]).as_matrix() @ T[:3, :3]
+    return out
 
 
 def support_height(points: np.ndarray, scene: np.ndarray) -> float:
@@ -189,7 +203,11 @@ def grasp_candidates(
         z = np.array([c * toward[0] - s * toward[1], s * toward[0] + c * toward[1], 0.0])
         poses.append(frame(np.cross([0.0, 0.0, 1.0], z), z, np.array([centre_xy[0], centre_xy[1], side_height])))
         spots.append(None)
-    poses = [_squared(points, normals, T) if T[2, 2] < -0.99 else T for T in poses]  # from above: squared
+    # from above: squared to the flat sides (found on the whole object: the pads' own few points, at a slant, end on
+    # a block's corners and blend both faces), else to the sides between the pads
+    faces = face_yaw(normals)
+    square = (lambda T: _square_to_faces(T, faces)) if faces is not None else (lambda T: _squared(points, normals, T))
+    poses = [square(T) if T[2, 2] < -0.99 else T for T in poses]
     kept, seen = [], set()
     for T, spot in zip(poses, spots, strict=True):
         closing = np.degrees(np.arctan2(T[1, 1], T[0, 1])) % 180.0  # squared sweeps meet: one grasp each
