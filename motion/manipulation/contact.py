@@ -43,6 +43,9 @@ class Contact(Protocol):
     def q_pre(self) -> np.ndarray: ...  # joints at T_pre
 
     @property
+    def q_contact(self) -> np.ndarray: ...  # joints at T_contact
+
+    @property
     def via(self) -> tuple[np.ndarray, ...]: ...  # TCP poses a push passes between contact and goal
 
     @property
