@@ -6,6 +6,8 @@ refusal type naming the piece that failed, with the cause kept.
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -23,6 +25,22 @@ from safety.geometry import Primitive
 from safety.robot_model import RobotModel
 
 REACH_TOL_M, REACH_TOL_RAD = 1e-3, 1e-2  # the contact's joints must put the TCP this close to its pose
+
+
+class Approach(Protocol):
+    """What a descent reads of a contact (contact.Contact, sweep.SweepContact): its poses and their joints."""
+
+    @property
+    def T_pre(self) -> np.ndarray: ...
+
+    @property
+    def T_contact(self) -> np.ndarray: ...
+
+    @property
+    def q_pre(self) -> np.ndarray: ...
+
+    @property
+    def q_contact(self) -> np.ndarray: ...
 
 
 class ManipulationRefused(RuntimeError):
@@ -97,7 +115,7 @@ class ManipulationChain:
         except CartesianPathError as e:
             raise ManipulationRefused(f"{what}: {e}") from e
 
-    def descent(self, before: Planner, touching: Planner, contact, what: str, pre: str) -> np.ndarray:
+    def descent(self, before: Planner, touching: Planner, contact: Approach, what: str, pre: str) -> np.ndarray:
         """Joint waypoints of the straight line from the contact's pre-contact pose T_pre down to T_contact, free
         in `touching`'s world; the first are the joints the free path must reach, valid in `before`'s. From the
         contact's own q_pre when that line is free; else the line up from its own q_contact, reversed, if that
