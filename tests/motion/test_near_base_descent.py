@@ -15,7 +15,9 @@ import pytest
 from drivers.config import RobotConfig
 from motion.config import MotionConfig
 from motion.manipulation.chain import ManipulationChain, ManipulationRefused
-from pipeline.contact.planner import IK_SETTINGS
+from motion.manipulation.phases import place_heights, plan_manipulation
+from pipeline.contact.planner import IK_SETTINGS, plan_contacts
+from pipeline.contact.types import ContactConfig
 from safety.collision import CollisionWorld
 
 OPEN_M = 0.066  # the approach's finger gap for a 5 cm can
@@ -46,18 +48,30 @@ def _contact(robot, safety, yaw_deg: float) -> SimpleNamespace:
     return SimpleNamespace(T_pre=T_pre, T_contact=T_contact, q_pre=pre.q, q_contact=contact.q)
 
 
-@pytest.fixture
-def chain(robot, safety) -> ManipulationChain:
-    empty = np.zeros((0, 3))
+def _chain(robot, safety, target: np.ndarray) -> ManipulationChain:
     return ManipulationChain(
         robot,
         robot_config=RobotConfig(),
         safety=safety,
         motion=MotionConfig(),
         q_start=robot.home_q,
-        scene=empty,
-        target=empty,
+        scene=np.zeros((0, 3)),
+        target=target,
     )
+
+
+@pytest.fixture
+def chain(robot, safety) -> ManipulationChain:
+    return _chain(robot, safety, np.zeros((0, 3)))
+
+
+def _standing_can(x: float, y: float, radius: float = 0.025, height: float = 0.07, n: int = 2500) -> np.ndarray:
+    """Points on the side and top of an upright can standing at (x, y) on the table (base frame)."""
+    rng = np.random.default_rng(0)
+    a, side = rng.uniform(-np.pi, np.pi, n), rng.random(n) < 0.6
+    r = np.where(side, radius, radius * np.sqrt(rng.random(n)))
+    z = np.where(side, rng.uniform(0.0, height, n), height)
+    return np.column_stack([x + r * np.cos(a), y + r * np.sin(a), z])
 
 
 def test_a_grasp_near_the_base_descends_on_the_contacts_own_swivel(chain, robot, safety):
@@ -84,3 +98,28 @@ def test_a_free_line_down_keeps_the_contacts_pre_contact_joints(chain, robot, sa
     path = chain.descent(before, touching, c, "down", "pre-grasp pose")
     np.testing.assert_array_equal(path[0], c.q_pre)
     np.testing.assert_array_equal(path, chain.line(touching, c.q_pre, c.T_contact, "down"))
+
+
+def test_a_can_turned_in_place_close_to_the_base_is_planned_whole(robot, safety):
+    # 0.27 m in front of the base: before the descent fell back to the contact's own joints, each of the three
+    # best contacts was refused on the way down (link2 / link4), though every one has a free line up
+    can = _standing_can(0.27, 0.0)
+    turn = np.eye(4)
+    turn[:3, :3] = [
+        [np.cos(np.pi / 4), -np.sin(np.pi / 4), 0.0],
+        [np.sin(np.pi / 4), np.cos(np.pi / 4), 0.0],
+        [0, 0, 1],
+    ]
+    turn[:3, 3] = [0.27, 0.0, 0.0] - turn[:3, :3] @ [0.27, 0.0, 0.0]  # 45 deg about the can's own axis
+    config = ContactConfig(
+        place_lifts_m=place_heights(safety.padding_m), collision_padding_m=safety.padding_m, min_tcp_height_m=0.015
+    )
+    result = plan_contacts(
+        can, np.zeros((0, 3)), turn, robot, config=config, collision_world=CollisionWorld(robot, safety, table=False)
+    )
+    assert result.ok
+    chain = _chain(robot, safety, can)
+    for contact in result.plans[:3]:
+        plan = plan_manipulation(chain, contact)
+        assert plan.phase_names == ("approach", "grasp", "carry", "retreat", "home")
+        assert all(p.report.ok for p in plan.phases)
