@@ -11,6 +11,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from drivers.config import RobotConfig
 from motion.config import MotionConfig
@@ -105,11 +106,7 @@ def test_a_can_turned_in_place_close_to_the_base_is_planned_whole(robot, safety)
     # best contacts was refused on the way down (link2 / link4), though every one has a free line up
     can = _standing_can(0.27, 0.0)
     turn = np.eye(4)
-    turn[:3, :3] = [
-        [np.cos(np.pi / 4), -np.sin(np.pi / 4), 0.0],
-        [np.sin(np.pi / 4), np.cos(np.pi / 4), 0.0],
-        [0, 0, 1],
-    ]
+    turn[:3, :3] = Rotation.from_euler("z", 45.0, degrees=True).as_matrix()
     turn[:3, 3] = [0.27, 0.0, 0.0] - turn[:3, :3] @ [0.27, 0.0, 0.0]  # 45 deg about the can's own axis
     config = ContactConfig(
         place_lifts_m=place_heights(safety.padding_m), collision_padding_m=safety.padding_m, min_tcp_height_m=0.015
