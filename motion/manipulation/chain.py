@@ -6,6 +6,8 @@ refusal type naming the piece that failed, with the cause kept.
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -23,6 +25,22 @@ from safety.geometry import Primitive
 from safety.robot_model import RobotModel
 
 REACH_TOL_M, REACH_TOL_RAD = 1e-3, 1e-2  # the contact's joints must put the TCP this close to its pose
+
+
+class Approach(Protocol):
+    """What a descent reads of a contact (contact.Contact, sweep.SweepContact): its poses and their joints."""
+
+    @property
+    def T_pre(self) -> np.ndarray: ...
+
+    @property
+    def T_contact(self) -> np.ndarray: ...
+
+    @property
+    def q_pre(self) -> np.ndarray: ...
+
+    @property
+    def q_contact(self) -> np.ndarray: ...
 
 
 class ManipulationRefused(RuntimeError):
@@ -96,6 +114,26 @@ class ManipulationChain:
             return cartesian_path(planner, q, T)
         except CartesianPathError as e:
             raise ManipulationRefused(f"{what}: {e}") from e
+
+    def descent(self, before: Planner, touching: Planner, contact: Approach, what: str, pre: str) -> np.ndarray:
+        """Joint waypoints of the straight line from the contact's pre-contact pose T_pre down to T_contact, free
+        in `touching`'s world; the first are the joints the free path must reach, valid in `before`'s. From the
+        contact's own q_pre when that line is free; else the line up from its own q_contact, reversed, if that
+        is. The seeded IK down a line keeps the elbow swivel it starts with, and q_pre and q_contact may be on
+        two swivels (contact planning solves each pose on its own): near the base, where the elbow folds tight,
+        q_pre's may fold link4 onto link2 on the way down while q_contact's, the contact's own clear posture,
+        leaves a free line up. Both lines are checked alike (every step and every kept segment)."""
+        q_pre = self.checked(before, contact.q_pre, contact.T_pre, pre)
+        try:
+            return self.line(touching, q_pre, contact.T_contact, what)
+        except ManipulationRefused as down:
+            try:
+                q_contact = self.checked(touching, contact.q_contact, contact.T_contact, f"{what}: the contact")
+                up = self.line(touching, q_contact, contact.T_pre, f"{what}, up from the contact's joints")
+                self.checked(before, up[-1], contact.T_pre, f"{pre} up from the contact's joints")
+            except ManipulationRefused as e:
+                raise ManipulationRefused(f"{down}; {e}") from e
+            return up[::-1].copy()
 
     def free(self, planner: Planner, qa: np.ndarray, qb: np.ndarray, what: str) -> np.ndarray:
         try:

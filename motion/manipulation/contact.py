@@ -2,7 +2,9 @@
 
 pipeline.contact.ContactPlan is the one type that carries it from contact planning to execution; motion does
 not import the pipeline (the two share a layer), so this states the fields it relies on. The joints are the ones
-contact planning solved in the gate's scene: the phases plan from them and check them, they do not solve again.
+contact planning solved in the gate's scene: the phases plan from them and check them, they do not solve again
+(but for the pre-contact joints where the line down from them is not free and the line up from the contact's own
+joints is: ManipulationChain.descent).
 """
 
 from __future__ import annotations
@@ -41,6 +43,9 @@ class Contact(Protocol):
 
     @property
     def q_pre(self) -> np.ndarray: ...  # joints at T_pre
+
+    @property
+    def q_contact(self) -> np.ndarray: ...  # joints at T_contact
 
     @property
     def via(self) -> tuple[np.ndarray, ...]: ...  # TCP poses a push passes between contact and goal

@@ -19,7 +19,8 @@ cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
           back unless asked)
   sweep:  a tool grasped, strokes, the tool put back: sweep.py
 The free paths end at the joints contact planning solved (pre-contact, above the place), checked in each phase's
-world; the lines between them follow the TCP.
+world; the lines between them follow the TCP. Where the line down from the pre-contact joints is not free, the line
+up from the contact's own joints is taken the other way, and the free path ends where it starts (chain.descent).
 """
 
 from __future__ import annotations
@@ -70,16 +71,17 @@ class ManipulationPlan:
         return np.max(peaks, axis=0).tolist()
 
 
-def _approach(chain: ManipulationChain, contact: Contact) -> tuple[ApprovedTrajectory, np.ndarray]:
-    """Free path to the pre-grasp pose, the object an obstacle until touched, opening the fingers; and q_pre."""
+def _approach(
+    chain: ManipulationChain, contact: Contact, planner: Planner, gripper: GripperAction, pre: str, what: str
+) -> tuple[ApprovedTrajectory, np.ndarray]:
+    """Free path to the pre-contact joints, the object an obstacle until touched, then the gripper action; and the
+    line down to the contact (in planner's world), which starts at those joints (ManipulationChain.descent)."""
     before = chain.world(chain.robot.spec.gripper.max_width_m, obstacle=chain.target_points)
     before_planner = chain.planner(before)
-    q_pre = chain.checked(before_planner, contact.q_pre, contact.T_pre, "pre-grasp pose")
-    to_pre = chain.free(before_planner, chain.q0, q_pre, "path to the pre-grasp pose")
-    approach = chain.approved(
-        [to_pre, GripperAction("open", OPEN_S, contact.open_width_m)], before, chain.q0, "approach", free_move=True
-    )
-    return approach, q_pre
+    down = chain.descent(before_planner, planner, contact, what, pre)
+    to_pre = chain.free(before_planner, chain.q0, down[0], f"path to the {pre}")
+    approach = chain.approved([to_pre, gripper], before, chain.q0, "approach", free_move=True)
+    return approach, down
 
 
 def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
@@ -89,13 +91,12 @@ def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
             "release and the pose above it, place_heights)"
         )
     (T_place, T_above), (_, q_above) = contact.T_place, contact.q_place
-    approach, q_pre = _approach(chain, contact)
-
     touching = chain.world(contact.open_width_m)  # the approach ended opening the fingers: no wider down to it
     planner = chain.planner(touching)
-    down = chain.line(planner, q_pre, contact.T_contact, "approach to the grasp")
+    opening = GripperAction("open", OPEN_S, contact.open_width_m)
+    approach, down = _approach(chain, contact, planner, opening, "pre-grasp pose", "approach to the grasp")
     lift = chain.line(planner, down[-1], lifted(contact.T_contact, LIFT_M), "lift after the grasp")
-    grasp = chain.approved([down, GripperAction("close", CLOSE_S, contact.width_m), lift], touching, q_pre, "grasp")
+    grasp = chain.approved([down, GripperAction("close", CLOSE_S, contact.width_m), lift], touching, down[0], "grasp")
 
     carry_world = chain.world(contact.width_m, held=contact.held)
     carry_planner = chain.planner(carry_world)
@@ -120,13 +121,13 @@ def plan_grasp(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
 def plan_lift(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     """Grasp the object and lift it to its goal pose, and hold it there. It rises first as a grasp does (it rests
     on the table, which the held object grown by the padding would touch), then held, to the goal."""
-    approach, q_pre = _approach(chain, contact)
     touching = chain.world(contact.open_width_m)
     planner = chain.planner(touching)
-    down = chain.line(planner, q_pre, contact.T_contact, "approach to the grasp")
+    opening = GripperAction("open", OPEN_S, contact.open_width_m)
+    approach, down = _approach(chain, contact, planner, opening, "pre-grasp pose", "approach to the grasp")
     clear = min(place_heights(chain.safety.padding_m)[0], float(contact.T_goal[2, 3] - contact.T_contact[2, 3]))
     rise = chain.line(planner, down[-1], lifted(contact.T_contact, clear), "rise off the table")
-    grasp = chain.approved([down, GripperAction("close", CLOSE_S, contact.width_m), rise], touching, q_pre, "grasp")
+    grasp = chain.approved([down, GripperAction("close", CLOSE_S, contact.width_m), rise], touching, down[0], "grasp")
     waypoints = {"pre-grasp": contact.T_pre, "grasp": contact.T_contact, "lifted": contact.T_goal}
     if np.linalg.norm(contact.T_goal[:3, 3] - chain.robot.tcp_pose(rise[-1])[:3, 3]) < 1e-3:
         return ManipulationPlan((approach, grasp), ("approach", "grasp"), contact, waypoints)
@@ -139,17 +140,11 @@ def plan_lift(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
 def plan_push(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     """A straight push, or a hinge push along the via poses of its arc."""
     g = chain.robot.spec.gripper
-    before = chain.world(g.max_width_m, obstacle=chain.target_points)
-    before_planner = chain.planner(before)
-    q_pre = chain.checked(before_planner, contact.q_pre, contact.T_pre, "pre-push pose")
-    to_pre = chain.free(before_planner, chain.q0, q_pre, "path to the pre-push pose")
-    approach = chain.approved(
-        [to_pre, GripperAction("close", CLOSE_S, g.min_width_m)], before, chain.q0, "approach", free_move=True
-    )
-
     touching = chain.world(g.min_width_m)
     planner = chain.planner(touching)
-    path = [chain.line(planner, q_pre, contact.T_contact, "approach to the push")]
+    closing = GripperAction("close", CLOSE_S, g.min_width_m)
+    approach, down = _approach(chain, contact, planner, closing, "pre-push pose", "approach to the push")
+    path = [down]
     for k, T in enumerate((*contact.via, contact.T_goal), start=1):
         what = f"push (arc pose {k} of {len(contact.via) + 1})" if contact.via else "push"
         path.append(chain.line(planner, path[-1][-1], T, what))
@@ -160,7 +155,7 @@ def plan_push(chain: ManipulationChain, contact: Contact) -> ManipulationPlan:
     back = _retreat(chain, planner, path[-1][-1], contact.T_goal, after, "retreat after the push", up, not contact.via)
     # a straight push moves a free object, which a fast one throws on past the fingers; a hinged part cannot go on
     speed = None if contact.via else chain.motion.push_tcp_speed_m_s
-    pushing = chain.approved([*path, back], touching, q_pre, "push", tcp_speed_m_s=speed)
+    pushing = chain.approved([*path, back], touching, down[0], "push", tcp_speed_m_s=speed)
     home = _home(chain, after, back[-1])
     arc = {f"arc {k}": T for k, T in enumerate(contact.via, start=1)}
     waypoints = {"pre-push": contact.T_pre, "contact": contact.T_contact, **arc, "push end": contact.T_goal}

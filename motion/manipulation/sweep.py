@@ -46,6 +46,7 @@ class SweepContact(Protocol):
     T_pre: np.ndarray
     T_contact: np.ndarray
     q_pre: np.ndarray
+    q_contact: np.ndarray
     width_m: float
     open_width_m: float
     held: Primitive
@@ -76,18 +77,17 @@ def plan_sweep_phases(chain: ManipulationChain, contact: SweepContact, tool_poin
         )
 
     before = world(everything_before, g.max_width_m)
-    planner = chain.planner(before)
-    q_pre = chain.checked(planner, contact.q_pre, contact.T_pre, "pre-grasp pose of the tool")
-    to_pre = chain.free(planner, chain.q0, q_pre, "path to the tool")
+    before_planner = chain.planner(before)
+    touching = world(np.vstack([chain.scene_points, group]), contact.open_width_m)
+    planner = chain.planner(touching)
+    down = chain.descent(before_planner, planner, contact, "down to the tool's handle", "pre-grasp pose of the tool")
+    to_pre = chain.free(before_planner, chain.q0, down[0], "path to the tool")
     approach = chain.approved(
         [to_pre, GripperAction("open", OPEN_S, contact.open_width_m)], before, chain.q0, "approach", free_move=True
     )
-
-    touching = world(np.vstack([chain.scene_points, group]), contact.open_width_m)
-    planner = chain.planner(touching)
-    down = chain.line(planner, q_pre, contact.T_contact, "down to the tool's handle")
     up = chain.line(planner, down[-1], lifted(contact.T_contact, LIFT_M), "lift the tool")
-    grasp = chain.approved([down, GripperAction("close", CLOSE_S, contact.width_m), up], touching, q_pre, "grasp tool")
+    closing = GripperAction("close", CLOSE_S, contact.width_m)
+    grasp = chain.approved([down, closing, up], touching, down[0], "grasp tool")
 
     carrying = world(np.vstack([chain.scene_points, group]), contact.width_m, contact.held)
     planner = chain.planner(carrying)
