@@ -85,14 +85,18 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         rotation_tol_deg=cfg.verify_rotation_tol_deg,
         symmetry=achieved.symmetry,
     )
-    if not comparison.ok or instruction_action(ctx.instruction) != "close":
-        return Verification(ok=comparison.ok, reason=comparison.reason, comparison=comparison)
-    return lid_shut(after, mask_after, comparison, cfg.verify_lid_shut_tol_deg)
+    closing = instruction_action(ctx.instruction) == "close"
+    if closing and comparison.position_error_m <= comparison.position_tol_m:  # where it should be: is it shut?
+        return lid_shut(after, mask_after, comparison, cfg.verify_lid_shut_tol_deg)
+    return Verification(ok=comparison.ok, reason=comparison.reason, comparison=comparison)
 
 
 def lid_shut(after: RGBDFrame, mask_lid: np.ndarray, comparison: Comparison, tol_deg: float) -> Verification:
-    """A close that matched its goal: verified only if the lid's seen face lies within tol_deg of the table's
-    plane (shut), measured on the capture after execution."""
+    """A close whose lid ended where its goal puts it: verified only if the lid's seen face lies within tol_deg of
+    the table's plane (shut), measured on the capture after execution. Shut is the goal a close asks for, and a lid
+    lies flat only turned all the way, so a shut lid's turn off the goal image's is not held against it: the goal
+    image may draw the lid a little short of shut or past it (a lid shut 22 deg off a goal drawn past shut was a
+    false failure); a lid left open fails however well it matched its goal."""
     T = after.T_base_camera
     points = after.intrinsics.unproject_depth_image(after.depth)[mask_lid & np.isfinite(after.depth)]
     tilt = face_tilt_deg(points @ T[:3, :3].T + T[:3, 3])
@@ -103,5 +107,8 @@ def lid_shut(after: RGBDFrame, mask_lid: np.ndarray, comparison: Comparison, tol
     if tilt > tol_deg:
         reason = f"the lid is not shut: its face is {tilt:.0f} deg off the table's plane (at most {tol_deg:.0f})"
         return Verification(ok=False, reason=reason, comparison=comparison, lid_tilt_deg=tilt)
-    reason = f"{comparison.reason}, lid shut within {tilt:.1f} deg"
+    if comparison.ok:
+        reason = f"{comparison.reason}, lid shut within {tilt:.1f} deg"
+    else:
+        reason = f"lid shut within {tilt:.1f} deg (the goal image's lid was drawn off shut: {comparison.reason})"
     return Verification(ok=True, reason=reason, comparison=comparison, lid_tilt_deg=tilt)

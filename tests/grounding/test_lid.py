@@ -113,3 +113,14 @@ def test_a_lid_not_seen_is_not_verified():
     frame, mask = render_lid(0.0)
     verdict = lid_shut(frame, np.zeros_like(mask), comparison_within_tolerance(), tol_deg=10.0)
     assert not verdict.ok and "too few points" in verdict.reason
+
+
+def test_a_shut_lid_off_a_goal_drawn_past_shut_is_verified_and_an_open_one_is_not():
+    turned_off = comparison_within_tolerance().model_copy(
+        update={"ok": False, "reason": "object tilted 21.6 deg off the goal (tolerance 15)", "tilt_error_deg": 21.6}
+    )
+    frame, mask = render_lid(2.0)
+    verdict = lid_shut(frame, mask, turned_off, tol_deg=10.0)
+    assert verdict.ok and "lid shut within" in verdict.reason and "21.6 deg off the goal" in verdict.reason
+    frame, mask = render_lid(25.0)
+    assert not lid_shut(frame, mask, turned_off, tol_deg=10.0).ok
