@@ -20,6 +20,7 @@ from pipeline.grounding.umeyama import Similarity
 from pipeline.perception.features import FeatureExtractor
 
 HINT_TWIST_DEG, HINT_TWIST_STEP_DEG = 30.0, 10.0  # the expected motion is tried turned this far, in these steps
+HINT_SPIN_STEP_DEG = 30.0  # ... and a body of revolution's spun about its axis in these
 
 
 @dataclass(frozen=True)
@@ -49,16 +50,25 @@ def _points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
     return frame.intrinsics.unproject_depth_image(frame.depth)[mask & np.isfinite(frame.depth)]
 
 
-def expected_twists(R: np.ndarray, t: np.ndarray, centre: np.ndarray, up: np.ndarray) -> list[Similarity]:
-    """The expected motion (camera frame) and the same motion turned about the vertical `up` through where it puts
-    the object's centre by up to HINT_TWIST_DEG: a turn often ends a few degrees off, beyond where ICP alone
-    converges from the goal."""
-    lands = R @ centre + t
-    out = []
-    for deg in np.arange(-HINT_TWIST_DEG, HINT_TWIST_DEG + 1e-9, HINT_TWIST_STEP_DEG):
-        R_hint = Rotation.from_rotvec(np.radians(deg) * up).as_matrix() @ R
-        out.append(Similarity(1.0, R_hint, lands - R_hint @ centre))
-    return out
+def expected_hints(
+    R: np.ndarray, t: np.ndarray, centre: np.ndarray, up: np.ndarray, symmetry: Symmetry | None
+) -> list[Similarity]:
+    """The expected motion (camera frame) and its near variants, as registration hints. A body of revolution:
+    the motion spun about the object's own axis in HINT_SPIN_STEP_DEG steps (a spin no image shows, but it decides
+    which side of the seen surface faces the camera: a lying bottle stood up by the goal's arbitrary spin may show
+    the camera its unseen back, and the right motion then scores nothing). Anything else: the motion turned about
+    the vertical `up` through where it puts the object's centre by up to HINT_TWIST_DEG (a turn often ends a few
+    degrees off, beyond where ICP alone converges from the goal)."""
+    if symmetry is not None and symmetry.axis is not None:
+        pivot, axis, step = symmetry.centre, symmetry.axis, HINT_SPIN_STEP_DEG
+        turns = [Rotation.from_rotvec(np.radians(d) * axis).as_matrix() for d in np.arange(0.0, 360.0, step)]
+        moves = [(R @ S, R @ (pivot - S @ pivot) + t) for S in turns]  # spun about the axis first, then moved
+    else:
+        lands = R @ centre + t
+        degrees = np.arange(-HINT_TWIST_DEG, HINT_TWIST_DEG + 1e-9, HINT_TWIST_STEP_DEG)
+        turned = [Rotation.from_rotvec(np.radians(d) * up).as_matrix() @ R for d in degrees]
+        moves = [(R_hint, lands - R_hint @ centre) for R_hint in turned]
+    return [Similarity(1.0, R_hint, t_hint) for R_hint, t_hint in moves]
 
 
 def measure_achieved(
@@ -99,6 +109,6 @@ def measure_achieved(
         anchor0=anchor_before,
     )
     up_camera = before.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
-    hints = [] if expected is None else expected_twists(*expected, centre, up_camera)
+    hints = [] if expected is None else expected_hints(*expected, centre, up_camera, symmetry)
     motion = ground(inp, features, config, T_base_camera=before.T_base_camera, hints=hints)
     return AchievedMotion(motion.R, motion.t, centre, symmetry, motion)

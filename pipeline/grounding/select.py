@@ -28,32 +28,37 @@ def select_motion(
     cfg: GroundingConfig,
     hints: Sequence[Similarity] = (),
 ) -> tuple[float, Similarity, bool]:
-    """(view agreement, motion, whether it is a hint's) of the best candidate after refinement.
+    """(score, motion, whether it is a hint's) of the best candidate after refinement: a candidate's score is its
+    view agreement times its ICP fitness, a hint's its view agreement alone.
 
-    `hints` (motions known to be likely, such as the goal's when verifying) skip the coarse cut, and the best of
-    them is taken when its view agreement alone is within HINT_MARGIN of the winner's: the views do not tell the two
-    apart (a uniform box turned half way looks the same), and a turn that shows other faces loses ICP fitness (the
-    faces first seen turn out of view) that a twin keeping the seen faces in view does not."""
+    `hints` (motions known to be likely, such as the goal's when verifying) skip the coarse cut, are kept unpolished
+    where ICP finds the clouds do not meet, and the best of them is taken when its view agreement is within
+    HINT_MARGIN of the winner's: the views do not tell the two apart (a uniform box turned half way looks the same).
+    ICP fitness does not rank hints: a turn that shows other faces loses fitness (the faces first seen turn out of
+    view; a bottle stood up shows a side it lay on) that a twin keeping the seen faces in view does not."""
     coarse = max(cfg.inlier_min_m, 0.1 * size)
     ranked = sorted(candidates, key=lambda h: -view_consistency(h, view0, view1, K, coarse))[: cfg.refine_top]
     fine = max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
     target = IcpTarget(view1.cloud, view1.normals) if cfg.icp else None
 
-    def scored(hypotheses: Sequence[Similarity]) -> list[tuple[float, float, Similarity]]:
-        """(view agreement, ICP fitness, refined motion) of each hypothesis the clouds meet on."""
+    def scored(hypotheses: Sequence[Similarity], keep: bool = False) -> list[tuple[float, float, Similarity]]:
+        """(view agreement, ICP fitness, refined motion) of each hypothesis the clouds meet on (of every one with
+        `keep`, unpolished where they do not)."""
         out = []
         for hypothesis in hypotheses:
             refined = _refine(hypothesis, view0.cloud, target, size, cfg) if target else (hypothesis, 1.0)
+            if refined is None and keep:
+                refined = (hypothesis, 0.0)
             if refined is not None:
                 sim, fitness = refined
                 out.append((view_consistency(sim, view0, view1, K, fine), fitness, sim))
         return out
 
-    found, hinted = scored(ranked), scored(hints)
+    found, hinted = scored(ranked), scored(hints, keep=True)
     if hinted:
         hint = max(hinted, key=lambda x: x[0])
         if not found or hint[0] >= max(found, key=lambda x: x[0] * x[1])[0] - HINT_MARGIN:
-            return hint[0] * hint[1], hint[2], True
+            return hint[0], hint[2], True
     if not found:
         return (0.0, ranked[0], False) if ranked else (0.0, hints[0], True)
     agreement, fitness, sim = max(found, key=lambda x: x[0] * x[1])

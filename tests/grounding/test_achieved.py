@@ -88,3 +88,22 @@ def test_a_half_turn_no_view_shows_is_not_held_against_the_run(box_world):
 def test_a_box_that_did_not_reach_its_turn_still_fails(box_world, turned, error):
     verdict = judge_turn(box_world, turned, 90.0)
     assert not verdict.ok and verdict.twist_error_deg == pytest.approx(error, abs=3.0), verdict.reason
+
+
+def test_a_body_of_revolution_is_hinted_spun_about_its_own_axis():
+    """A bottle stood up: the goal's spin about the bottle's axis is arbitrary and decides which side faces the
+    camera, so the hints spin it all round; each moves the axis where the goal does."""
+    from pipeline.grounding.achieved import HINT_SPIN_STEP_DEG, expected_hints
+    from pipeline.grounding.compare import Symmetry
+
+    centre, axis = np.array([0.0, 0.1, 0.8]), np.array([1.0, 0.0, 0.0])
+    R = Rotation.from_euler("y", 90, degrees=True).as_matrix()
+    t = np.array([0.05, 0.0, 0.0])
+    hints = expected_hints(R, t, centre, np.array([0.0, -1.0, 0.0]), Symmetry(centre, axis))
+    assert len(hints) == round(360 / HINT_SPIN_STEP_DEG)
+    on_axis = centre + np.outer([-0.05, 0.05], axis)
+    spins = []
+    for h in hints:
+        np.testing.assert_allclose(h.apply(on_axis), on_axis @ R.T + t, atol=1e-9)
+        spins.append(Rotation.from_matrix(R.T @ h.R).magnitude())
+    assert np.degrees(max(spins)) == pytest.approx(180.0)  # all the way round
