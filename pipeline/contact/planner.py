@@ -102,9 +102,11 @@ def plan_contacts(
     rejected: Counter[str] = Counter()
     gripper = GripperBoxes(robot, cfg.collision_padding_m)
     if mode == "grasp":
-        candidates, why = grasp_candidates(
-            pts, normals, cfg, robot.spec.gripper.max_width_m, support_height(pts, scene)
-        )
+        # a body of revolution is pinched where it is, not where its seen half is: the width and the middle between
+        # the pads from its surface completed about its axis (a lying bottle's half facing the robot is unseen)
+        body = revolution_axis(pts) if ball_centre(pts) is None else None
+        surface = (pts, normals) if body is None else body.completed(pts, normals)
+        candidates, why = grasp_candidates(*surface, cfg, robot.spec.gripper.max_width_m, support_height(pts, scene))
         rejected.update(why)
     elif mode == "hinge":
         try:

@@ -37,6 +37,17 @@ class RevolutionAxis:
         """4x4 rigid turn by angle_rad about this axis (base frame)."""
         return turn_about(self.point, self.direction, angle_rad)
 
+    def completed(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The seen surface (points and outward normals, base frame) and the same turned half a turn about the
+        axis: the side one camera does not see (a lying bottle's side away from the camera, below its top), where
+        a finger closes too."""
+        T = self.turn(np.pi)
+        points, normals = np.asarray(points, dtype=np.float64), np.asarray(normals, dtype=np.float64)
+        return (
+            np.vstack([points, points @ T[:3, :3].T + T[:3, 3]]),
+            np.vstack([normals, normals @ T[:3, :3].T]),
+        )
+
 
 def ball_centre(points: np.ndarray) -> np.ndarray | None:
     """The centre of the ball the points (N, 3) lie on, or None when they lie on no sphere no larger than they
