@@ -62,7 +62,7 @@ def stand_up(radius: float, length: float, centre_xy=CENTRE_XY, yaw: float = 0.0
 
 def plan(robot, safety, radius: float, length: float, centre_xy=CENTRE_XY, yaw: float = 0.0):
     """Planned as the runtime's contact stage plans (runtime.run.contact): the gate's scene without the table, which
-    the contact's own height checks stand for."""
+    the contact's own height checks stand for, and with it for the release, the object in the hand."""
     config = ContactConfig(
         min_tcp_height_m=lowest_safe_tcp_height(robot, safety.padding_m),
         collision_padding_m=safety.padding_m,
@@ -72,7 +72,10 @@ def plan(robot, safety, radius: float, length: float, centre_xy=CENTRE_XY, yaw: 
     world = CollisionWorld(robot, safety, points=empty, table=False)
     points = lying_can(radius, length, centre_xy=centre_xy, yaw=yaw)
     motion = stand_up(radius, length, centre_xy, yaw)
-    return points, plan_contacts(points, empty, motion, robot, config=config, collision_world=world)
+    release_world = CollisionWorld(robot, safety, points=empty)
+    return points, plan_contacts(
+        points, empty, motion, robot, config=config, collision_world=world, release_world=release_world
+    )
 
 
 def test_a_can_stood_up_by_its_middle_is_let_go_where_the_wrist_clears_the_floor(robot, safety):
