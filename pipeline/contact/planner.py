@@ -12,9 +12,9 @@ where the gripper would touch the scene there: into a container whose walls are 
 long, onto an object that stands close, the fingers stay above the rim and the object drops the rest; and higher
 (within the same drop) only where no candidate's arm takes its lowest. The gripper is checked there holding the
 object and opened as far as it opens to let go, and the joints there and above must be free of the scene with the
-object in the hand (the carry's own world), the release's those the straight descent from above arrives with. A flat object laid on its face by a
-gripper holding it sideways (a plate grasped at its rim) is let go standing on its far edge instead, and tips over
-onto its goal (tipping.py): the release heights are then above that pose.
+object in the hand (the carry's own world), the release's those the straight descent from above arrives with. A
+flat object laid on its face by a gripper holding it sideways (a plate grasped at its rim) is let go standing on
+its far edge instead, and tips over onto its goal (tipping.py): the release heights are then above that pose.
 
 Two freedoms the candidates do not spell out are used. The parallel gripper looks the same after a half turn about
 its approach axis, but the wrist does not (link7 is off its axis): one twin may fold link5 onto link7 where the
