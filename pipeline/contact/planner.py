@@ -112,7 +112,9 @@ def plan_contacts(
         # the pads from its surface completed about its axis (a lying bottle's half facing the robot is unseen)
         body = revolution_axis(pts) if ball_centre(pts) is None else None
         surface = (pts, normals) if body is None else body.completed(pts, normals)
-        candidates, why = grasp_candidates(*surface, cfg, robot.spec.gripper.max_width_m, support_height(pts, scene))
+        candidates, why = grasp_candidates(
+            *surface, cfg, robot.spec.gripper.max_width_m, support_height(pts, scene), None if body is None else pts
+        )
         rejected.update(why)
     elif mode == "hinge":
         try:
@@ -616,7 +618,8 @@ def _plan(
     w = cfg.weights
     total = sum(w[k] * v for k, v in scores.items()) / sum(w.values())
     grasp = c.mode == "grasp"
-    width = robot.spec.gripper.min_width_m if not grasp else max(0.0, c.object_width_m - cfg.squeeze_m)
+    closing = c.object_width_m if c.grip_width_m is None else c.grip_width_m
+    width = robot.spec.gripper.min_width_m if not grasp else max(0.0, closing - cfg.squeeze_m)
     q_pre, q_contact, *q_via = qs
     return ContactPlan(
         mode=c.mode,
