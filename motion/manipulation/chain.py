@@ -22,9 +22,12 @@ from motion.timing import TimingError, TrajectoryTimer
 from safety.collision import CollisionWorld
 from safety.config import SafetyConfig
 from safety.geometry import Primitive
+from safety.ik import IKSettings
 from safety.robot_model import RobotModel
 
 REACH_TOL_M, REACH_TOL_RAD = 1e-3, 1e-2  # the contact's joints must put the TCP this close to its pose
+# where what a plan put down stands in the home gripper's way, it ends at home raised in steps this high, up to this
+REST_RAISE_STEP_M, REST_RAISE_MAX_M = 0.02, 0.2
 
 
 class Approach(Protocol):
@@ -56,7 +59,7 @@ class ManipulationChain:
     """Motion pieces for one robot, one control period and one scene.
 
     scene: the camera's obstacle points without the target (base frame); target: the target's points, an
-    obstacle until the hand reaches it. q_start: where the arm is; the plan starts there and ends at home.
+    obstacle until the hand reaches it. q_start: where the arm is; the plan starts there and ends at home (rest).
     """
 
     def __init__(
@@ -93,6 +96,23 @@ class ManipulationChain:
 
     def planner(self, world: CollisionWorld) -> Planner:
         return Planner(world, self.limits, self.motion.planner_config())
+
+    def rest(self, world: CollisionWorld) -> np.ndarray:
+        """The posture a plan ends in, valid in `world` (what the plan left where it now is): home; where that
+        stands in the home gripper's way (a tall bottle stood up under it), home with the TCP raised straight up
+        until clear, at most REST_RAISE_MAX_M; home when none is (the path there is refused with why)."""
+        planner = self.planner(world)
+        if planner.valid(self.home):
+            return self.home
+        T_home = self.robot.tcp_pose(self.home)
+        settings = IKSettings(restarts=0)
+        for lift in np.arange(REST_RAISE_STEP_M, REST_RAISE_MAX_M + 1e-9, REST_RAISE_STEP_M):
+            T = T_home.copy()
+            T[2, 3] += lift
+            r = self.robot.ik(T, self.home, preferred_q=self.home, settings=settings, accept=planner.valid)
+            if r.success:
+                return r.q
+        return self.home
 
     def checked(self, planner: Planner, q: np.ndarray, T_base_tcp: np.ndarray, what: str) -> np.ndarray:
         """The contact's own joints for the TCP pose T_base_tcp, if they reach it and are valid in this phase's

@@ -7,9 +7,10 @@ cut anyway (rest-to-rest timing at waypoints), so the cuts cost no time.
   grasp:  approach (free path to the pre-grasp pose; the object is an obstacle) -> grasp (straight in, close,
           straight up) -> carry (object attached to the TCP: free path above the place pose, straight down to the
           release, open to the contact's release width) -> retreat (back along the approach axis, else straight
-          up) -> home (the placed object is an obstacle). The release is the contact's: just above the goal, or
-          higher where the fingers would touch the scene lower (a container's walls), the object dropping the
-          rest, the fingers opened as wide as the scene there lets (at least as the approach opened them).
+          up) -> home (the placed object is an obstacle; home raised where it stands in the way). The release is
+          the contact's: just above the goal, or higher where the fingers would touch the scene lower (a
+          container's walls), the object dropping the rest, the fingers opened as wide as the scene there lets (at
+          least as the approach opened them).
   push:   approach (free path, close the fingers) -> push (straight in, push along the motion at
           motion.push_tcp_speed_m_s, back off along the tilted hand, else straight up) -> home
   hinge:  as push, the push following the via poses along the hinged part's arc (a Cartesian line between each
@@ -200,8 +201,9 @@ def _retreat(
 
 
 def _home(chain: ManipulationChain, world: CollisionWorld, q_start: np.ndarray) -> ApprovedTrajectory:
-    """Back to the home posture, with the object where it now is as an obstacle."""
-    path = chain.free(chain.planner(world), q_start, chain.home, "path home")
+    """Back to the home posture (raised where the object stands in its way: chain.rest), with the object where it
+    now is as an obstacle."""
+    path = chain.free(chain.planner(world), q_start, chain.rest(world), "path home")
     return chain.approved([path], world, q_start, "home", free_move=True)
 
 

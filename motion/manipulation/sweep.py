@@ -125,7 +125,7 @@ def plan_sweep_phases(chain: ManipulationChain, contact: SweepContact, tool_poin
     retreat = chain.approved([rise], released, lower[-1], "retreat")
 
     homing = world(np.vstack([after, tool]), g.max_width_m)
-    to_home = chain.free(chain.planner(homing), rise[-1], chain.home, "path home")
+    to_home = chain.free(chain.planner(homing), rise[-1], chain.rest(homing), "path home")
     home = chain.approved([to_home], homing, rise[-1], "home", free_move=True)
 
     phases = (approach, grasp, carry, strokes, back, put_down, retreat, home)

@@ -9,11 +9,12 @@ counted under a readable reason so a refusal says what ruled the candidates out.
 
 A grasp lets go of the object config.place_lifts_m[0] above its goal, or higher (up to config.max_drop_m more)
 where the gripper would touch the scene there: into a container whose walls are taller than the fingers are
-long, onto an object that stands close, the fingers stay above the rim and the object drops the rest. The gripper
-is checked there holding the object and opened as far as it opens to let go, and the joints there and above must
-be free of the scene with the object in the hand (the carry's own world). A flat object laid on its face by a
-gripper holding it sideways (a plate grasped at its rim) is let go standing on its far edge instead, and tips over
-onto its goal (tipping.py): the release heights are then above that pose.
+long, onto an object that stands close, the fingers stay above the rim and the object drops the rest; and higher
+(within the same drop) only where no candidate's arm takes its lowest. The gripper is checked there holding the
+object and opened as far as it opens to let go, and the joints there and above must be free of the scene with the
+object in the hand (the carry's own world), the release's those the straight descent from above arrives with. A
+flat object laid on its face by a gripper holding it sideways (a plate grasped at its rim) is let go standing on
+its far edge instead, and tips over onto its goal (tipping.py): the release heights are then above that pose.
 
 Two freedoms the candidates do not spell out are used. The parallel gripper looks the same after a half turn about
 its approach axis, but the wrist does not (link7 is off its axis): one twin may fold link5 onto link7 where the
@@ -63,6 +64,11 @@ DROP_STEP_M = 0.01  # release heights tried above the lowest
 CELL_MARGIN_M = 0.009  # the gate sees the scene's points as 1 cm cells: a release this much clearer passes it
 GROUNDED_TURN_DEG = 1.0  # a plan's motion this close to the grounded one realises it (no turn about an axis)
 RELEASE_WIDTH_STEP_M = 0.005  # release openings tried from the gripper's widest down to the approach's
+# the manipulation's straight descent to the release, followed as motion.cartesian follows it: steps this long, each
+# solved from the last alone, no joint moving more than this in one
+LINE_STEP_M, LINE_JUMP_RAD = 0.005, 0.15
+LINE_IK_SETTINGS = IKSettings(restarts=0)
+PASSES = ((True, False), (False, False), (False, True))  # (IK accepted at the goal pose, releases above the lowest)
 
 
 def plan_contacts(
@@ -102,8 +108,12 @@ def plan_contacts(
     rejected: Counter[str] = Counter()
     gripper = GripperBoxes(robot, cfg.collision_padding_m)
     if mode == "grasp":
+        # a body of revolution is pinched where it is, not where its seen half is: the width and the middle between
+        # the pads from its surface completed about its axis (a lying bottle's half facing the robot is unseen)
+        body = revolution_axis(pts) if ball_centre(pts) is None else None
+        surface = (pts, normals) if body is None else body.completed(pts, normals)
         candidates, why = grasp_candidates(
-            pts, normals, cfg, robot.spec.gripper.max_width_m, support_height(pts, scene)
+            *surface, cfg, robot.spec.gripper.max_width_m, support_height(pts, scene), None if body is None else pts
         )
         rejected.update(why)
     elif mode == "hinge":
@@ -147,12 +157,16 @@ def plan_contacts(
     )
     seed = robot.home_q if q_seed is None else np.asarray(q_seed, dtype=np.float64)
     # a grasp let go above its goal never takes the goal pose itself: only when no candidate has accepted IK there
-    # are the poses it does take enough (_goal_ik), so plans that worked before keep their ranks
-    for at_goal in (True, False) if mode == "grasp" and cfg.place_lifts_m else (True,):
+    # are the poses it does take enough (_goal_ik), so plans that worked before keep their ranks; and only when no
+    # candidate can be let go at its lowest release is it let go higher, the object dropping the rest (a can stood
+    # up far out to the side: lower, the arm folds into its base)
+    for at_goal, higher in PASSES if mode == "grasp" and cfg.place_lifts_m else PASSES[:1]:
         plans, unreachable = [], Counter()
         for c in geometric[: cfg.ik_candidates]:
             try:
-                plans += _reachable_plans(c, cfg, robot, seed, motions, goal_check, collision_world, placing, at_goal)
+                plans += _reachable_plans(
+                    c, cfg, robot, seed, motions, goal_check, collision_world, placing, at_goal, higher
+                )
             except _Unreachable as e:
                 unreachable[e.reason] += 1
             if len(plans) >= cfg.keep:
@@ -284,25 +298,27 @@ class _GoalCheck:
         tip = tip_turn(T_goal, self.moved[k])
         return T_goal if tip is None else tip @ T_goal
 
-    def ending(self, c: Candidate, T_goal: np.ndarray, k: int) -> tuple[tuple[float, ...], str]:
-        """(set-down heights above T_goal, why the candidate cannot end at T_goal under the k-th motion): a push
-        ends at T_goal (no heights); a grasp lets go at the release height above its set-down pose (set_down),
-        config.place_lifts_m[0] or up to config.max_drop_m higher, and passes config.place_lifts_m's others raised
-        as much (without place lifts: the object is set down at T_goal itself). The reason is empty when it can end
-        there."""
+    def ending(self, c: Candidate, T_goal: np.ndarray, k: int) -> tuple[list[tuple[float, ...]], str]:
+        """(the sets of set-down heights above T_goal it can end with, lowest first, why the candidate cannot end at
+        T_goal under the k-th motion): a push ends at T_goal (one empty set); a grasp lets go at a release height
+        above its set-down pose (set_down), config.place_lifts_m[0] or up to config.max_drop_m higher in
+        DROP_STEP_M steps, each where the gripper clears the scene, and passes config.place_lifts_m's others raised
+        as much (without place lifts: the object is set down at T_goal itself). Higher ones are kept for when the
+        arm cannot take the lowest (a can stood up by its middle holds the hand sideways, the wrist low). The
+        reason is empty when it can end there."""
         if c.mode != "grasp":
             why = self._clear(T_goal, (0.0,))
-            return (), f"gripper {why} at the goal" if why else ""
+            return [()], f"gripper {why} at the goal" if why else ""
         if self.placed_reason[k]:
-            return (), self.placed_reason[k]
+            return [], self.placed_reason[k]
         lifts = self.cfg.place_lifts_m
         if not lifts:  # set down at the goal itself
             why = self._clear(T_goal, (c.object_width_m,))
-            return (), f"gripper {why} at the goal" if why else ""
+            return [()], f"gripper {why} at the goal" if why else ""
         widths = (c.object_width_m, _open_width(c, self.cfg, self.robot))
         p = self.placing
         held = held_box(p.points, c.T_contact, tcp_link=p.tcp_link, name=p.name).padded(self.clearance)
-        why = ""
+        first, out = "", []
         T_set = self.set_down(c, T_goal, k)
         for extra in np.arange(0.0, self.cfg.max_drop_m + 1e-9, DROP_STEP_M):
             T = T_set.copy()
@@ -310,9 +326,11 @@ class _GoalCheck:
             why = self._clear(T, widths, self.releasing)
             if not why and not self._held_clear(held, T):
                 why = "holds the object against the scene"
-            if not why:
-                return tuple(h + float(extra) for h in lifts), ""
-        return (), f"gripper {why} at every release height"
+            if why:
+                first = first or why
+            else:
+                out.append(tuple(h + float(extra) for h in lifts))
+        return out, "" if out else f"gripper {first} at every release height"
 
     def release_width(self, c: Candidate, T_release: np.ndarray, free) -> float:
         """A grasp's widest finger gap, from the gripper's widest down to the approach's opening, whose fingers at
@@ -330,7 +348,7 @@ class _GoalCheck:
         """(the least height beyond place_lifts_m[0] the object is let go from under any motion, "") or (0, the
         first motion's reason) when the candidate can end under none of them."""
         endings = [self.ending(c, _goal(c, M), k) for k, M in enumerate(motions)]
-        lifts = [h[0] - (self.cfg.place_lifts_m or (0.0,))[0] for h, why in endings if not why and h]
+        lifts = [h[0][0] - (self.cfg.place_lifts_m or (0.0,))[0] for h, why in endings if not why and h[0]]
         if any(not why for _, why in endings):
             return (min(lifts) if lifts else 0.0), ""
         return 0.0, endings[0][1]
@@ -404,6 +422,7 @@ def _reachable_plans(
     world,
     placing: _Placing,
     at_goal: bool = True,
+    higher: bool = False,
 ) -> list[ContactPlan]:
     """The candidate's plan for each wrist twin whose poses all have IK (under the first object motion that has),
     the twin nearer the hand's present turn first: the other may be half a turn of joint 7 away, where a path is
@@ -415,7 +434,7 @@ def _reachable_plans(
     for twin in twins:
         try:
             accepts = _Acceptance(twin, cfg, robot, world, placing)
-            plans.append(_twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing, at_goal))
+            plans.append(_twin_plan(twin, cfg, robot, seed, motions, goal_check, accepts, placing, at_goal, higher))
         except _Unreachable as e:
             first = first or e
     if not plans:
@@ -468,9 +487,11 @@ def _twin_plan(
     accepts: _Acceptance,
     placing: _Placing,
     at_goal: bool = True,
+    higher: bool = False,
 ) -> ContactPlan:
     """The plan of this twin under the first motion whose goal passes the goal checks and has IK (at_goal False:
-    whose release and the pose above it have IK, the goal pose itself a seed only, _goal_ik); else _Unreachable."""
+    whose release and the pose above it have IK, the goal pose itself a seed only, _goal_ik), let go at the lowest
+    release (higher: at the lowest of those that have); else _Unreachable."""
     T_pre = _pre_contact(c, cfg.pre_distance_m)
     qs = []
     arc = [(T, "arc") for T in c.via]
@@ -483,11 +504,14 @@ def _twin_plan(
     for k in _turns_to_try(c, motions, robot):
         M = motions[k]
         T_goal = _goal(c, M)
-        lifts, why = goal_check.ending(c, T_goal, k)
+        heights, why = goal_check.ending(c, T_goal, k)
         if why:
             continue
         T_set = goal_check.set_down(c, T_goal, k)
-        goal, why = _goal_ik(robot, T_set, lifts, qs[-1], accepts, at_goal)
+        for lifts in heights if higher else heights[:1]:
+            goal, why = _goal_ik(robot, T_set, lifts, qs[-1], accepts, at_goal)
+            if goal:
+                break
         if goal:
             release = goal[1] if len(goal) > 1 else goal[0]  # (pose, joints) where the fingers let go
             width = goal_check.release_width(c, release[0], accepts.released(release[1]))
@@ -544,11 +568,34 @@ def _goal_ik(
             held = " with the object in the hand" if i and accept is not None else ""
             return [], f"{what} out of reach{held}"
         out.append((T, r.q))
+    if len(lifts) > 1:  # the arm reaches the release down the line from the pose above it, not by its own IK
+        k = len(out) - len(lifts)
+        q_release = _descent(robot, out[k + 1][1], out[k + 1][0], out[k][0], accepts.of("place"))
+        if q_release is None:
+            return [], "descent to the pose to let go from blocked with the object in the hand"
+        out[k] = (out[k][0], q_release)
     if not at_goal:
         q_release = out[0][1]
         r = robot.ik(poses[0], q_release, preferred_q=q_release, settings=GOAL_IK_SETTINGS)
         out.insert(0, (poses[0], r.q if r.success else q_release))
     return out, ""
+
+
+def _descent(robot: RobotModel, q_above: np.ndarray, T_above: np.ndarray, T_release: np.ndarray, accept):
+    """The joints the straight line from q_above (at T_above) arrives at T_release with, each step solved from the
+    last as the manipulation's line is (motion.cartesian), every one accepted; None where a step has none or
+    jumps. The release's own IK may lie on another branch of the arm than the line reaches: a can stood up far to
+    the side had its release free and the line's end with link2 in the base."""
+    steps = max(1, int(np.ceil(np.linalg.norm(T_release[:3, 3] - T_above[:3, 3]) / LINE_STEP_M)))
+    q = q_above
+    for s in np.linspace(0.0, 1.0, steps + 1)[1:]:
+        T = T_release.copy()
+        T[:3, 3] = (1.0 - s) * T_above[:3, 3] + s * T_release[:3, 3]
+        r = robot.ik(T, q, preferred_q=q, settings=LINE_IK_SETTINGS, accept=accept)
+        if not r.success or np.max(np.abs(r.q - q)) > LINE_JUMP_RAD:
+            return None
+        q = r.q
+    return q
 
 
 def _plan(
@@ -571,7 +618,8 @@ def _plan(
     w = cfg.weights
     total = sum(w[k] * v for k, v in scores.items()) / sum(w.values())
     grasp = c.mode == "grasp"
-    width = robot.spec.gripper.min_width_m if not grasp else max(0.0, c.object_width_m - cfg.squeeze_m)
+    closing = c.object_width_m if c.grip_width_m is None else c.grip_width_m
+    width = robot.spec.gripper.min_width_m if not grasp else max(0.0, closing - cfg.squeeze_m)
     q_pre, q_contact, *q_via = qs
     return ContactPlan(
         mode=c.mode,

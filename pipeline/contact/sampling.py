@@ -54,6 +54,9 @@ class Candidate:
     T_goal: np.ndarray | None = None  # None: T_contact carried by the object motion (rigid grasp or push)
     back_off: np.ndarray | None = None  # unit direction from contact to pre-contact (None: up the approach axis)
     sway_m: float = 0.0  # grasp: how far the pinched part may sway sideways (the fingers open that much wider)
+    # grasp: the width the fingers close below, when narrower than object_width_m: what the seen points show
+    # between the pads of a width measured on a completed surface (grasp_candidates' seen_points)
+    grip_width_m: float | None = None
 
 
 def frame(y: np.ndarray, z: np.ndarray, origin: np.ndarray) -> np.ndarray:
@@ -76,11 +79,16 @@ def estimate_normals(points: np.ndarray, radius_m: float, viewpoint: np.ndarray)
     return np.asarray(pcd.normals)
 
 
+def _between_pads(points: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The points in the frame of a gripper at T, and which of them lie between its pads."""
+    local = (points - T[:3, 3]) @ T[:3, :3]
+    return local, (np.abs(local[:, 0]) < PAD_HALF_WIDTH_M) & (local[:, 2] > -PAD_LENGTH_M) & (local[:, 2] < 0.003)
+
+
 def _pinch(points: np.ndarray, normals: np.ndarray, T: np.ndarray) -> tuple[float, float, float] | None:
     """Width [m] of the object between the pads of a gripper at T, the antipodal quality, and the shift along
     the closing axis that centres the fingers on it; None if nothing lies between the pads."""
-    local = (points - T[:3, 3]) @ T[:3, :3]
-    slab = (np.abs(local[:, 0]) < PAD_HALF_WIDTH_M) & (local[:, 2] > -PAD_LENGTH_M) & (local[:, 2] < 0.003)
+    local, slab = _between_pads(points, T)
     if slab.sum() < 5:
         return None
     y = local[slab, 1]
@@ -99,8 +107,7 @@ def _squared(points: np.ndarray, normals: np.ndarray, T: np.ndarray) -> np.ndarr
     side's reversed; a point facing up or down weighs little), each folded to within 45 deg of the closing axis (a
     face and those square to it are one choice: pads on a block's corner turn to the nearer pair of faces). T
     itself when it is square already or the pads close on no seen side."""
-    local = (points - T[:3, 3]) @ T[:3, :3]
-    slab = (np.abs(local[:, 0]) < PAD_HALF_WIDTH_M) & (local[:, 2] > -PAD_LENGTH_M) & (local[:, 2] < 0.003)
+    local, slab = _between_pads(points, T)
     if slab.sum() < 5:
         return T
     y, n = local[slab, 1], normals[slab] @ T[:3, :3]  # normals in the TCP frame
@@ -160,9 +167,18 @@ def support_height(points: np.ndarray, scene: np.ndarray) -> float:
 
 
 def grasp_candidates(
-    points: np.ndarray, normals: np.ndarray, cfg: ContactConfig, max_width_m: float, support_z: float = 0.0
+    points: np.ndarray,
+    normals: np.ndarray,
+    cfg: ContactConfig,
+    max_width_m: float,
+    support_z: float = 0.0,
+    seen_points: np.ndarray | None = None,
 ) -> tuple[list[Candidate], dict[str, int]]:
-    """support_z: the height of a raised support the object stands on (support_height), 0 on the table."""
+    """support_z: the height of a raised support the object stands on (support_height), 0 on the table. seen_points:
+    the points seen when `points` is a surface completed from them (a body of revolution): the fingers open and centre
+    on the completed one, and close below the narrower width the seen points show between the pads (completed
+    about an axis a few millimetres off, an upright bottle's shoulder read 8 mm wider than it is, and the fingers
+    closed on it too lightly to hold it)."""
     rejected = {"too wide for the gripper": 0, "nothing between the fingers": 0, "across the object's slant": 0}
     centroid = points.mean(axis=0)
     size = float(np.linalg.norm(np.percentile(points, 95, axis=0) - np.percentile(points, 5, axis=0)))
@@ -238,7 +254,11 @@ def grasp_candidates(
         centred = float(np.clip(1.0 - 2 * np.linalg.norm(T[:2, 3] - centre_xy) / max(size, 1e-6), 0.0, 1.0))
         tall = top - support_z
         sway = SWAY_RAD * tall if spot is not None and width < THIN_RATIO * tall else 0.0
-        out.append(Candidate("grasp", T, width, antipodal, approach, centred, sway_m=sway))
+        grip = None
+        if seen_points is not None:
+            local, slab = _between_pads(seen_points, T)
+            grip = float(np.ptp(local[slab, 1])) if slab.sum() >= 5 and np.ptp(local[slab, 1]) < width else None
+        out.append(Candidate("grasp", T, width, antipodal, approach, centred, sway_m=sway, grip_width_m=grip))
     return out, rejected
 
 

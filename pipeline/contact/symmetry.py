@@ -37,6 +37,17 @@ class RevolutionAxis:
         """4x4 rigid turn by angle_rad about this axis (base frame)."""
         return turn_about(self.point, self.direction, angle_rad)
 
+    def completed(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The seen surface (points and outward normals, base frame) and the same turned half a turn about the
+        axis: the side one camera does not see (a lying bottle's side away from the camera, below its top), where
+        a finger closes too."""
+        T = self.turn(np.pi)
+        points, normals = np.asarray(points, dtype=np.float64), np.asarray(normals, dtype=np.float64)
+        return (
+            np.vstack([points, points @ T[:3, :3].T + T[:3, 3]]),
+            np.vstack([normals, normals @ T[:3, :3].T]),
+        )
+
 
 def ball_centre(points: np.ndarray) -> np.ndarray | None:
     """The centre of the ball the points (N, 3) lie on, or None when they lie on no sphere no larger than they
@@ -94,11 +105,11 @@ def _middle_slices(points: np.ndarray, axis: np.ndarray) -> list[np.ndarray]:
     return [p for p in slices if len(p) >= MIN_SLICE_POINTS]
 
 
-def _ends_alike(points: np.ndarray, axis: RevolutionAxis) -> bool:
-    """Whether the body has one radius all along the middle of its seen length (within ENDS_ALIKE_REL of the
-    median): no neck, no shoulder, nothing to tell one end from the other. The axis is first refined through the
-    centres of circles fitted to each slice (the principal direction of a short, wide can's seen half is a few
-    degrees off, which would read as a taper)."""
+def _refined(points: np.ndarray, axis: RevolutionAxis) -> RevolutionAxis:
+    """The axis refined through the centres of circles fitted to each slice across it (twice), the radius the
+    points' median distance from it; the axis as it is when fewer than 3 slices hold enough points. The principal
+    direction of a short, wide can's seen half is off by up to 10 deg, tilted out of the table's plane: turned
+    about it, a can stood up leans, and its taper reads as a neck."""
     direction, point = axis.direction, axis.point
     for _ in range(2):
         e1, e2 = _basis(direction)
@@ -109,15 +120,23 @@ def _ends_alike(points: np.ndarray, axis: RevolutionAxis) -> bool:
             u0, v0, _ = np.linalg.lstsq(A, (uv**2).sum(axis=1), rcond=None)[0]
             centres.append(u0 * e1 + v0 * e2 + float(np.mean(p @ direction)) * direction)
         if len(centres) < 3:
-            return False
+            return axis
         C = np.array(centres)
         point = C.mean(axis=0)
         refined = np.linalg.svd(C - point, full_matrices=False)[2][0]
         direction = refined if refined @ direction > 0 else -refined
+    off = points - point
+    radius = float(np.median(np.linalg.norm(off - np.outer(off @ direction, direction), axis=1)))
+    return replace(axis, point=point, direction=direction, radius_m=radius)
+
+
+def _ends_alike(points: np.ndarray, axis: RevolutionAxis) -> bool:
+    """Whether the body has one radius all along the middle of its seen length (within ENDS_ALIKE_REL of the
+    median) about its (refined) axis: no neck, no shoulder, nothing to tell one end from the other."""
     radii = []
-    for p in _middle_slices(points, direction):
-        off = p - point
-        radii.append(float(np.median(np.linalg.norm(off - np.outer(off @ direction, direction), axis=1))))
+    for p in _middle_slices(points, axis.direction):
+        off = p - axis.point
+        radii.append(float(np.median(np.linalg.norm(off - np.outer(off @ axis.direction, axis.direction), axis=1))))
     if len(radii) < 3:
         return False
     typical = float(np.median(radii))
@@ -136,4 +155,5 @@ def revolution_axis(points: np.ndarray) -> RevolutionAxis | None:
     best = min((_fit(P, d, size) for d in directions), key=lambda f: f.residual_rel)
     if best.residual_rel > TOLERANCE_REL:
         return None
-    return replace(best, ends_alike=_ends_alike(P, best))
+    refined = _refined(P, best)
+    return replace(refined, ends_alike=_ends_alike(P, refined))

@@ -86,6 +86,9 @@ def contact_plans(ctx: RunContext, clouds: SceneClouds, robot: RobotModel, q_sta
         collision_world=CollisionWorld(robot, ctx.profile.safety, points=clouds.scene, table=False),
         viewpoint=ctx.frame0.T_base_camera[:3, 3],
         object_name=ctx.goal.target,
+        # a grasp's release and the descent to it, the object in the hand, with the table as the carry's gate sees it
+        # (the hand let go of a stood-up bottle sideways, low: link6 came down into the padded table)
+        release_world=CollisionWorld(robot, ctx.profile.safety, points=clouds.scene),
     )
     ctx.record.summary.contact = ContactRecord(
         mode=mode,
