@@ -85,6 +85,9 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         rotation_tol_deg=cfg.verify_rotation_tol_deg,
         symmetry=achieved.symmetry,
     )
+    if achieved.registration is not None and achieved.registration.details.get("hint_taken"):
+        hinted = f"{comparison.reason} (measured from the goal's motion as a hint: the captures show it as well as any)"
+        comparison = comparison.model_copy(update={"reason": hinted})
     closing = instruction_action(ctx.instruction) == "close"
     if closing and comparison.position_error_m <= comparison.position_tol_m:  # where it should be: is it shut?
         return lid_shut(after, mask_after, comparison, cfg.verify_lid_shut_tol_deg)
