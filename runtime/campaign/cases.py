@@ -19,7 +19,7 @@ from pydantic import BaseModel, ConfigDict
 GENERATED, GENERATED_ALL = "gen", "gen-all"
 TRIAL_STRIDE = 100_000  # a named task's trials place its scene with seeds seed, seed + STRIDE, ...
 # how the simulator judges a generated action (runtime.campaign.truth.RULES); a place: its centre alone
-GENERATED_TRUTH = {"rotate": "goal_turn", "stand_up": "goal_turn", "push": "goal_upright", "close": "hinge_shut"}
+GENERATED_TRUTH = {"rotate": "goal_turn", "stand_up": "stood_up", "push": "goal_upright", "close": "hinge_shut"}
 
 
 class TaskSpec(BaseModel):
@@ -55,7 +55,7 @@ TASKS: dict[str, TaskSpec] = {
         instruction="stand the green bottle up",
         action="stand up",
         target="bottle",
-        truth="goal_turn",
+        truth="stood_up",
     ),
     "close_lid": TaskSpec(
         scene="close_lid", instruction="close the blue chest", action="close", target="box", truth="hinge_shut"

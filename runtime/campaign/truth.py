@@ -60,6 +60,16 @@ def goal_upright(case: Case, summary: RunSummary) -> bool | None:
     return tilt is not None and tilt <= TURN_TOL_DEG
 
 
+def stood_up(case: Case, summary: RunSummary) -> bool | None:
+    """goal_turn, and standing the right way up by the task's own truth (a bottle on its neck is not stood up,
+    though a registration that turned it end for end makes that its goal)."""
+    placed = goal_turn(case, summary)
+    if not placed:
+        return placed
+    task = summary.sim_truth.task
+    return task is not None and task.done
+
+
 def hinge_shut(case: Case, summary: RunSummary) -> bool | None:
     """The target's lid hinge ended within LID_SHUT_DEG of shut."""
     truth = summary.sim_truth
@@ -83,6 +93,7 @@ RULES: dict[str, Rule] = {
     "goal_error": goal_error,
     "goal_turn": goal_turn,
     "goal_upright": goal_upright,
+    "stood_up": stood_up,
     "hinge_shut": hinge_shut,
     "task_done": task_done,
 }

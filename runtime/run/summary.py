@@ -194,7 +194,7 @@ class TaskTruthRecord(Section):
     """What the task itself asks, judged from the simulator: a sweep's parts inside the container's floor, an
     object lifted clear of everything but the fingers, a support left empty with the object on the table."""
 
-    action: str  # sweep, lift, take_off
+    action: str  # sweep, lift, take_off, stand_up
     done: bool  # the task is done by the simulator's measure
     detail: str
     parts_inside: int | None = None  # sweep

@@ -30,6 +30,7 @@ from runtime.run.summary import TaskTruthRecord
 SWEPT_FRACTION = 0.8
 CLEAR_M = 0.01
 ON_TABLE_M = 0.01
+UPRIGHT_TOL_DEG = 15.0  # a stood-up object's axis this close to vertical stands (the verification's turn tolerance)
 
 
 def named(world: SimWorld, phrase: str) -> list[SceneObject]:
@@ -89,7 +90,28 @@ def task_truth(world: SimWorld, instr: Instruction) -> TaskTruthRecord | None:
             return _sweep(world, instr)
         if instr.action in ("lift", "take_off"):
             return _lifted(world, instr)
+        if instr.action == "stand_up":
+            return _stood(world, instr)
     return None
+
+
+def _stood(world: SimWorld, instr: Instruction) -> TaskTruthRecord:
+    """Standing the right way up: its axis within UPRIGHT_TOL_DEG of vertical, a bottle's neck end up (a can, one
+    radius all along, either end). The goal comparison alone is against the grounded motion, which a registration
+    that turned a bottle end for end would have made a bottle standing on its neck."""
+    found = named(world, instr.target)
+    if len(found) != 1:
+        return TaskTruthRecord(action=instr.action, done=False, detail=f"'{instr.target}' names {len(found)} objects")
+    o = found[0]
+    axis = world.data.geom(f"{o.name}_g0").xmat.reshape(3, 3)[:, 2]  # a bottle's: from its body to its neck
+    up = float(axis[2]) if o.kind == "bottle" else abs(float(axis[2]))
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, up))))
+    what = "neck end" if o.kind == "bottle" else "axis"
+    return TaskTruthRecord(
+        action=instr.action,
+        done=tilt <= UPRIGHT_TOL_DEG,
+        detail=f"{o.name}'s {what} {tilt:.0f} deg from straight up (at most {UPRIGHT_TOL_DEG:.0f})",
+    )
 
 
 def _sweep(world: SimWorld, instr: Instruction) -> TaskTruthRecord:

@@ -95,18 +95,25 @@ def test_a_turn_and_a_stand_up_are_judged_by_the_shape_a_push_by_not_tipping():
     def turned(turn: float, tilt: float, error: float = 0.01) -> SimTruthRecord:
         return moved("bottle", error).model_copy(update={"target_turn_error_deg": turn, "target_tilt_error_deg": tilt})
 
+    def stood(turn: float, tilt: float, upright: bool, error: float = 0.01) -> SimTruthRecord:
+        task = TaskTruthRecord(action="stand_up", done=upright, detail="")
+        return turned(turn, tilt, error).model_copy(update={"task": task})
+
     stand_up = case("bottle_standup")
-    assert stand_up.truth == "goal_turn"
-    assert judge(stand_up, summary(truth=turned(5.0, 5.0))) is True
-    assert judge(stand_up, summary(truth=turned(80.0, 80.0))) is False  # where it should be, still lying down
-    assert judge(stand_up, summary(truth=turned(5.0, 5.0, error=0.05))) is False
+    assert stand_up.truth == "stood_up"
+    assert judge(stand_up, summary(truth=stood(5.0, 5.0, True))) is True
+    assert judge(stand_up, summary(truth=stood(80.0, 80.0, False))) is False  # where it should be, still lying down
+    assert judge(stand_up, summary(truth=stood(5.0, 5.0, True, error=0.05))) is False
+    # on its neck: as the grounded motion (turned end for end) had it, but not stood up
+    assert judge(stand_up, summary(truth=stood(1.0, 1.0, False))) is False
     push = case(action="push", target="bottle", truth="goal_upright")
     assert judge(push, summary(truth=turned(40.0, 3.0))) is True  # twisted along the way: no matter
     assert judge(push, summary(truth=turned(40.0, 30.0))) is False  # tipped over
     place = case(target="bottle")
     assert judge(place, summary(truth=turned(80.0, 80.0))) is True  # a place judges the centre alone
     by_action = {c.action.split()[0]: c.truth for c in expand([GENERATED_ALL], range(20, 32), 1)}
-    assert by_action["rotate"] == by_action["stand"] == "goal_turn" and by_action["push"] == "goal_upright"
+    assert by_action["rotate"] == "goal_turn" and by_action["stand"] == "stood_up"
+    assert by_action["push"] == "goal_upright"
     assert by_action["close"] == "hinge_shut" and by_action["place"] == "goal_error"
 
 
