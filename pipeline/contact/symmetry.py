@@ -130,6 +130,20 @@ def _refined(points: np.ndarray, axis: RevolutionAxis) -> RevolutionAxis:
     return replace(axis, point=point, direction=direction, radius_m=radius)
 
 
+def slice_radii(points: np.ndarray, axis: RevolutionAxis) -> tuple[np.ndarray, np.ndarray]:
+    """(position along the axis, median radius) of each SLICE_M slice across it over the whole seen length, each
+    of at least MIN_SLICE_POINTS points."""
+    off = points - axis.point
+    along = off @ axis.direction
+    radius = np.linalg.norm(off - np.outer(along, axis.direction), axis=1)
+    index = np.floor((along - along.min()) / SLICE_M).astype(int)
+    kept = [k for k in np.unique(index) if (index == k).sum() >= MIN_SLICE_POINTS]
+    return (
+        np.array([float(np.mean(along[index == k])) for k in kept]),
+        np.array([float(np.median(radius[index == k])) for k in kept]),
+    )
+
+
 def _ends_alike(points: np.ndarray, axis: RevolutionAxis) -> bool:
     """Whether the body has one radius all along the middle of its seen length (within ENDS_ALIKE_REL of the
     median) about its (refined) axis: no neck, no shoulder, nothing to tell one end from the other."""

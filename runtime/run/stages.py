@@ -28,6 +28,7 @@ from pipeline.grounding.compare import rotation_deg
 from pipeline.grounding.ground import ground
 from pipeline.grounding.group import ground_group
 from pipeline.grounding.types import GroundingInput
+from pipeline.grounding.upright import stood_on_its_base
 from pipeline.perception.features import FeatureExtractor, features_from_config
 from pipeline.perception.segmenter import Segmenter
 from pipeline.reasoning.factory import build_reasoner, build_segmenter
@@ -144,6 +145,9 @@ class PipelineStages:
                 ctx.profile.pipeline.grounding,
                 T_base_camera=frame.T_base_camera,
             )
+        if ctx.goal.group_size is None:
+            seen = frame.intrinsics.unproject_depth_image(frame.depth)[ctx.goal.mask_init & np.isfinite(frame.depth)]
+            motion = stood_on_its_base(motion, seen, frame.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0]))
         ctx.record.summary.object_motion = MotionRecord.of(motion)
         if not motion.ok:
             raise StageError(f"grounding refused: {motion.reason}")

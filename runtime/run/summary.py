@@ -50,6 +50,7 @@ class MotionRecord(Section):
     depth_residual_m: float | None
     T_base_motion: list[list[float]] | None = None  # with a calibration, when ok
     translation_base_m: list[float] | None = None
+    adjusted: str | None = None  # why the registration's motion was changed (a bottle turned end for end)
 
     @classmethod
     def of(cls, motion: ObjectMotion) -> MotionRecord:
@@ -67,6 +68,7 @@ class MotionRecord(Section):
             depth_residual_m=_finite(motion.depth_residual_m),
             T_base_motion=None if T_base is None else T_base.tolist(),
             translation_base_m=None if T_base is None else T_base[:3, 3].tolist(),
+            adjusted=motion.details.get("turned_end_for_end"),
         )
 
 
