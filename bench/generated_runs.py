@@ -12,8 +12,8 @@ worker), and the state each failure ended in. With --stepped the physics is adva
 loaded machine cannot starve the simulated robot (wall times then say nothing of real time). Use seeds you did not
 tune on.
 
-    python bench/generated_runs.py --seeds 2000:2040|a,b,c --out gen.json [--runs-dir campaigns/gen] [--workers 2] [--quick]
-        [--stepped]
+    python bench/generated_runs.py --seeds 2000:2040|a,b,c --out gen.json [--runs-dir campaigns/gen] [--workers 2]
+        [--quick] [--stepped]
 """
 
 from __future__ import annotations

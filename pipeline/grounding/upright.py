@@ -14,9 +14,9 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from pipeline.contact.symmetry import RevolutionAxis, revolution_axis, slice_radii
+from pipeline.grounding.compare import half_turn_across
 from pipeline.grounding.types import ObjectMotion
 
 STANDING_DEG = 45.0  # a goal axis this close to vertical stands the object
@@ -47,9 +47,7 @@ def stood_on_its_base(motion: ObjectMotion, points_camera: np.ndarray, up_camera
     base = wide_end(points_camera, axis)
     if base is None or float((motion.R @ base) @ up_camera) < math.cos(math.radians(STANDING_DEG)):
         return motion  # not standing, or standing on its base
-    helper = np.array([1.0, 0.0, 0.0]) if abs(axis.direction[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    across = np.cross(axis.direction, helper)
-    H = Rotation.from_rotvec(math.pi * across / np.linalg.norm(across)).as_matrix()
+    H = half_turn_across(axis.direction)
     R = motion.R @ H
     t = motion.R @ (axis.point - H @ axis.point) + motion.t
     why = "the goal stood it on its narrow end: turned end for end to stand on its base"

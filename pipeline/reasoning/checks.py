@@ -99,12 +99,17 @@ UNCHANGED_LEVELS = 12.0  # a pixel within this many levels of the first image (b
 UNCHANGED_SHARE = 0.8  # ... and a region this much of whose pixels off the target's first place did not, was there
 
 
+def colour_change(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:
+    """(H, W) the largest channel difference between the two images, each blurred 5x5 (pixel noise, edges)."""
+    a = cv2.GaussianBlur(rgb_a, (5, 5), 0).astype(np.int16)
+    b = cv2.GaussianBlur(rgb_b, (5, 5), 0).astype(np.int16)
+    return np.abs(a - b).max(axis=2)
+
+
 def unchanged_pixels(rgb_init: np.ndarray, rgb: np.ndarray) -> np.ndarray:
     """(H, W) bool: the pixels of `rgb` that still look as in `rgb_init` (blurred, within UNCHANGED_LEVELS or three
     times the image's median change, whichever is more: an editor redraws the whole image with a little drift)."""
-    a = cv2.GaussianBlur(rgb_init, (5, 5), 0).astype(np.int16)
-    b = cv2.GaussianBlur(rgb, (5, 5), 0).astype(np.int16)
-    change = np.abs(a - b).max(axis=2)
+    change = colour_change(rgb_init, rgb)
     return change <= max(UNCHANGED_LEVELS, 3.0 * float(np.median(change)))
 
 
@@ -146,9 +151,7 @@ def background_problems(
     rgb_init: np.ndarray, rgb_goal: np.ndarray, exclude: np.ndarray, cfg: ChecksConfig
 ) -> list[str]:
     """Regions outside the target masks whose colour changed: other objects moved, appeared or vanished."""
-    a = cv2.GaussianBlur(rgb_init, (5, 5), 0).astype(np.int16)
-    b = cv2.GaussianBlur(rgb_goal, (5, 5), 0).astype(np.int16)
-    changed = (np.abs(a - b).max(axis=2) > cfg.pixel_change_threshold) & ~exclude
+    changed = (colour_change(rgb_init, rgb_goal) > cfg.pixel_change_threshold) & ~exclude
     changed = cv2.morphologyEx(changed.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
     n, _, stats, centroids = cv2.connectedComponentsWithStats(changed, connectivity=8)
     limit = cfg.max_changed_blob_frac * changed.size
