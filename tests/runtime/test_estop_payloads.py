@@ -51,6 +51,26 @@ FAMILIES = {
 }
 
 
+class Arrival:
+    """Set-points streamed when an e-stop sample reached the runtime's session (a second subscriber beside the
+    supervisor's): the transport takes up to a few hundred milliseconds to carry a 10 MB payload, and the
+    runtime's reaction starts when it arrives."""
+
+    def __init__(self) -> None:
+        self.stages: ScriptedStages | None = None
+        self.streamed: int | None = None
+        self.event = threading.Event()
+
+    def expect(self, stages: ScriptedStages) -> None:
+        self.stages, self.streamed = stages, None
+        self.event.clear()
+
+    def on_sample(self, key: str, payload: bytes) -> None:
+        if self.stages is not None and not self.event.is_set():
+            self.streamed = self.stages.streamed
+            self.event.set()
+
+
 @pytest.fixture(scope="module")
 def rig(sim_config_path):
     overrides = {"runtime": {"zenoh": {"endpoint": f"tcp/127.0.0.1:{free_port()}"}, "robot_id": "estop_payloads"}}
@@ -59,7 +79,9 @@ def rig(sim_config_path):
         cfg = profile.runtime
         with Bus(cfg.zenoh, cfg.robot_id, "connect") as pendant:
             assert wait_for(rt.supervisor.deadman_ok, 10)
-            yield rt, devices, pendant
+            arrival = Arrival()
+            rt.bus.subscribe_bytes(rt.bus.keys.estop, arrival.on_sample)
+            yield rt, devices, pendant, arrival
 
 
 @pytest.fixture
@@ -79,21 +101,22 @@ def joint_motion_after(devices, seconds: float = 0.3) -> float:
 
 @pytest.mark.parametrize("family", list(FAMILIES))
 def test_any_estop_payload_stops_the_arm_and_latches(idle, tmp_path, family):
-    rt, devices, pendant = idle
+    rt, devices, pendant, arrival = idle
     make, reason = FAMILIES[family]
     stages = rt.stages = ScriptedStages(move_speed_rad_s=0.12)  # a ~5 s move
+    arrival.expect(stages)
     box = {}
     th = threading.Thread(target=lambda: box.update(result=rt.run("move the arm", tmp_path / "run")), daemon=True)
     th.start()
     assert stages.executing.wait(15) and wait_for(lambda: stages.streamed >= UNDER_WAY, 5)
-    streamed = stages.streamed
     pendant.publish(pendant.keys.estop, make())
+    assert arrival.event.wait(5)
     th.join(10)
     result = box["result"]
     assert result.status == State.ESTOPPED, result.reason
     assert reason in result.reason, result.reason
     assert [t.state for t in result.summary.transitions][-1] == "ESTOPPED"
-    assert stages.streamed - streamed < 10  # streaming ended within a few ticks
+    assert stages.streamed - arrival.streamed < 10  # streaming ended within a few ticks of the sample's arrival
     assert joint_motion_after(devices) < 2e-3
     assert np.max(np.abs(devices.arm.read_state().qd)) < 0.05
 
@@ -121,7 +144,7 @@ def test_a_newer_estop_node_keeps_the_deadman_alive(runtime_cfg):
 
 def test_estop_sample_stops_before_its_payload_is_read(idle, monkeypatch):
     """The arm is stopped first; reading the payload comes after (and even a failure to read it latches)."""
-    rt, _devices, pendant = idle
+    rt, _devices, pendant, _arrival = idle
     order = []
     import runtime.supervision.supervisor as supervisor_module
 
