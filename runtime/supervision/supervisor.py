@@ -5,7 +5,10 @@
   wrong with it: an empty, garbled, oversized, newer or stale e-stop stops the robot like a good one.
 - Its own thread, at `WATCH_RATE_HZ`, reads the arm (driver health: fault codes, a driver that stops answering),
   publishes `joint_state` telemetry, enforces each state's time budget and the deadman: while EXECUTING, the
-  freshest e-stop node heartbeat must be younger than `deadman_timeout_s`.
+  freshest e-stop node heartbeat must be younger than `deadman_timeout_s`. The deadman judges the e-stop node's
+  silence, not this process's: after a stall of this process (a garbage collection or a C call holding the GIL,
+  which holds heartbeat callbacks back as well) it waits one heartbeat period for the samples queued meanwhile
+  before judging; an arm whose supervisor was stalled could not have been stopped sooner anyway.
 - An e-stop node's liveliness token vanishing while EXECUTING stops at once (its process died).
 Whatever stops the run sets `cancel`, which the run loop and the executor watch; the supervisor never waits
 for them to notice: it has already called arm.stop() itself. `cancel` is set only after the run's end is a
@@ -209,9 +212,15 @@ class Supervisor:
         period = 1.0 / WATCH_RATE_HZ
         telemetry_period = 1.0 / self.cfg.telemetry_rate_hz
         next_tick = next_telemetry = time.monotonic()
+        catch_up_until = 0.0
         while not self._stop_thread.is_set():
+            woke = time.monotonic()
+            stalled = woke - next_tick
+            if stalled > self.cfg.deadman_timeout_s / 4:  # this process stood still: heartbeats queued meanwhile
+                catch_up_until = woke + 1.0 / self.cfg.heartbeat_rate_hz
+                log.warning("supervisor watch stalled %.3f s (this process, not the e-stop node)", stalled)
             try:
-                self._check(publish=time.monotonic() >= next_telemetry)
+                self._check(publish=time.monotonic() >= next_telemetry, judge_deadman=woke >= catch_up_until)
             except Exception as e:  # the watch must survive anything a device or the bus throws at it
                 log.exception("supervisor check failed")
                 if self.machine.state in MOVING:  # an unwatched arm must not keep moving
@@ -222,9 +231,9 @@ class Supervisor:
             next_tick = max(next_tick + period, now)
             self._stop_thread.wait(max(0.0, next_tick - time.monotonic()))
 
-    def _check(self, publish: bool) -> None:
+    def _check(self, publish: bool, judge_deadman: bool) -> None:
         state = self.machine.state
-        if state in MOVING and not self.deadman_ok():
+        if state in MOVING and judge_deadman and not self.deadman_ok():
             self.estop(
                 f"deadman: no e-stop node heartbeat for {self.estop_heartbeat_age():.3f} s "
                 f"(limit {self.cfg.deadman_timeout_s:.3f} s)"

@@ -72,6 +72,49 @@ def test_frozen_node_trips_the_deadman_during_execution(rig):
     assert "deadman" in machine.reason and arm.stopped.is_set()
 
 
+def hold_the_gil(seconds: float) -> float:
+    """Stand this whole process still for at least `seconds`, as a full garbage collection does: sum() over a range
+    runs in C with the GIL held, so no other Python thread (heartbeats, their callbacks, the watch) runs meanwhile."""
+    t0 = time.monotonic()
+    sum(range(100_000))
+    n = int(100_000 * seconds / max(time.monotonic() - t0, 1e-6) * 1.5)
+    t0 = time.monotonic()
+    sum(range(n))
+    return time.monotonic() - t0
+
+
+def checks_after(node_bus, count: int = 3) -> bool:
+    """True once the watch has run `count` more checks (each joint_state it publishes comes after one)."""
+    checks = []
+    node_bus.subscribe(node_bus.keys.joint_state, JointStateMsg, lambda k, m: checks.append(m))
+    return wait_for(lambda: len(checks) >= count, 2.0)
+
+
+def test_a_stall_of_this_process_does_not_trip_the_deadman(rig):
+    """A stall longer than the deadman timeout holds back the e-stop node's heartbeats (in this test the node is in
+    the same process) and their callbacks: it is this process that stood still, not the node, and the run goes on."""
+    sup, machine, arm, _node, node_bus = rig
+    _to_executing(machine)
+    held = hold_the_gil(0.3)
+    stall_ended = time.monotonic()
+    assert held > 0.2  # longer than the deadman timeout
+    assert wait_for(lambda: sup.estop_heartbeat_age() < time.monotonic() - stall_ended, 2.0)  # a beat since
+    assert checks_after(node_bus)
+    assert machine.state == State.EXECUTING, machine.reason
+    assert not arm.stopped.is_set()
+
+
+def test_a_node_that_froze_during_a_stall_of_this_process_trips_the_deadman(rig):
+    _sup, machine, arm, node, _ = rig
+    _to_executing(machine)
+    node.paused.set()
+    assert hold_the_gil(0.3) > 0.2
+    stall_ended = time.monotonic()
+    assert wait_for(lambda: machine.state == State.ESTOPPED, 2.0)
+    assert time.monotonic() - stall_ended < 0.05 + 0.2  # one heartbeat period of catch-up (slack for a loaded machine)
+    assert "deadman" in machine.reason and arm.stopped.is_set()
+
+
 def test_frozen_node_outside_execution_does_not_stop(rig):
     sup, machine, arm, node, node_bus = rig
     machine.advance(State.CAPTURING)
