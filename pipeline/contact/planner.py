@@ -44,7 +44,7 @@ from pipeline.contact.sampling import (
     push_candidates,
     support_height,
 )
-from pipeline.contact.symmetry import ball_centre, revolution_axis, turn_deg
+from pipeline.contact.symmetry import ball_centre, completed_points, revolution_axis, turn_deg
 from pipeline.contact.tipping import flat_normal, tip_turn
 from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from safety.collision import CollisionWorld
@@ -130,7 +130,7 @@ def plan_contacts(
         shift = transform_points(T_base_motion, pts.mean(axis=0)[None])[0] - pts.mean(axis=0)
         g = robot.spec.gripper
         fingers = GripperBoxes(robot, 0.0).corners_tcp(g.min_width_m, g.finger_links)
-        candidates = push_candidates(pts, shift, cfg, gripper.corners_tcp(g.min_width_m), fingers)
+        candidates = push_candidates(completed_points(pts), shift, cfg, gripper.corners_tcp(g.min_width_m), fingers)
         if not candidates:
             rejected["no horizontal motion to push along"] += 1
     total = len(candidates) + sum(rejected.values())

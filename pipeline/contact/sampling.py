@@ -285,18 +285,20 @@ def push_candidates(
     if distance < 1e-6:
         return []
     d /= distance
-    along = points @ d
-    back = points[along < np.percentile(along, 5) + 0.005]
-    back_xy, back_along = back[:, :2].mean(axis=0), float(np.percentile(along, 2))  # where the fingers first touch
+    up = np.array([0.0, 0.0, 1.0])
+    side = np.cross(up, d)
+    along, across = points @ d, points @ side
+    back_along = float(np.percentile(along, 2))  # where the fingers first touch
+    middle = 0.5 * float(np.percentile(across, 2) + np.percentile(across, 98))  # the line through the object's width
+    back_xy = back_along * d[:2] + middle * side[:2]
     centroid = points.mean(axis=0)
     top = float(np.percentile(points[:, 2], 98))
-    up = np.array([0.0, 0.0, 1.0])
     out = []
     kinds = ((1.0, cfg.push_tilt_deg, False), (0.8, cfg.push_tilt_deg, True), (0.5, 0.0, False), (0.4, 0.0, True))
     for preference, tilt_deg, quarter in kinds:
         tilt = np.radians(tilt_deg)
         z = np.cos(tilt) * -up + np.sin(tilt) * d  # tips toward the object, the hand behind and above
-        y = d if quarter else np.cross(up, d)
+        y = d if quarter else side
         T = frame(y, z, np.zeros(3))
         front = float(np.max(fingers_tcp @ T[:3, :3].T @ d))  # how far the fingers reach ahead of the TCP
         if tilt_deg > 0:  # as low as the padded gripper clears the table

@@ -64,6 +64,19 @@ def ball_centre(points: np.ndarray) -> np.ndarray | None:
     return centre if off <= TOLERANCE_REL * size and float(np.median(radius)) <= BALL_SPAN * size else None
 
 
+def completed_points(points: np.ndarray) -> np.ndarray:
+    """The seen points (N, 3) with the side the camera does not see, where the object's shape tells it: a ball's
+    points mirrored through its centre, a body of revolution's turned half a turn about its axis; anything else
+    as seen. A push starts behind the object and through its middle: on a can's seen half, its back (away from
+    the camera) falls short by the eroded rim and its middle lies toward the camera by about half a radius."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    centre = ball_centre(P)
+    if centre is not None:
+        return np.vstack([P, 2.0 * centre - P])
+    body = revolution_axis(P)
+    return P if body is None else body.completed(P, np.zeros_like(P))[0]
+
+
 def turn_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
     """The angle [deg] of the rotation between two motions (4x4): how far a plan's turns from the grounded one."""
     cos = (np.trace(T_a[:3, :3] @ T_b[:3, :3].T) - 1.0) / 2.0

@@ -132,6 +132,41 @@ def test_a_tall_can_pushed_any_way_slides_by_the_shift_without_tipping(robot, si
             device.close()
 
 
+@pytest.mark.slow
+def test_a_push_starts_behind_a_can_and_through_its_axis_on_the_side_the_camera_does_not_see(
+    robot, sim_profile_with, tmp_path
+):
+    """The camera sees a can's near half: the back its rim hides and its middle (half a radius toward the camera
+    on the seen points) are where the push must start from, whatever the direction: clear of the can on the way
+    down (a finger landing on the rim blocks the arm) and through the axis (off it, a round can slides sideways)."""
+    from drivers.sim import SimCamera, SimWorld
+
+    scene = _single_scene(
+        tmp_path, "  - {name: can, kind: cylinder, radius_m: 0.035, height_m: 0.112, color: red, xy_m: [0.40, 0.12]}\n"
+    )
+    profile = sim_profile_with({"sim": {"scene": scene}})
+    world = SimWorld(profile.sim, profile.camera)
+    camera = SimCamera(world)
+    camera.connect()
+    try:
+        obj, scene_points, _eye = clouds(world, camera, robot, "can")
+        axis_xy = world.object_pose("can")[:2, 3]
+    finally:
+        camera.close()
+    front = GripperBoxes(robot, 0.0).corners_tcp(robot.spec.gripper.min_width_m, robot.spec.gripper.finger_links)
+    for bearing_deg in range(0, 360, 45):
+        d = np.array([math.cos(math.radians(bearing_deg)), math.sin(math.radians(bearing_deg)), 0.0])
+        result = plan_contacts(obj, scene_points, _translation(*(0.08 * d)), robot, mode="push", config=PLACE)
+        assert result.ok, (bearing_deg, result.reason)
+        for plan in result.plans:
+            tcp = plan.T_contact[:3, 3]
+            off_axis = (tcp[:2] - axis_xy) - ((tcp[:2] - axis_xy) @ d[:2]) * d[:2]
+            assert np.linalg.norm(off_axis) < 0.003, (bearing_deg, off_axis)
+            reach = float(np.max(front @ plan.T_contact[:3, :3].T @ d))
+            gap = (axis_xy @ d[:2] - 0.035) - (tcp @ d + reach)  # fingers' front to the can's true back
+            assert gap > 0.008, (bearing_deg, gap)  # most of the 15 mm standoff
+
+
 def test_both_wrists_are_plans(robot):
     # the parallel gripper is the same turned half a turn about its approach axis, the arm is not: either wrist may
     # be the one whose paths and lines the manipulation finds
