@@ -27,6 +27,7 @@ from pipeline.contact.types import ContactPlan
 from pipeline.grounding.compare import rotation_deg
 from pipeline.grounding.ground import ground
 from pipeline.grounding.group import ground_group
+from pipeline.grounding.settle import settled
 from pipeline.grounding.types import GroundingInput
 from pipeline.grounding.upright import stood_on_its_base
 from pipeline.perception.features import FeatureExtractor, features_from_config
@@ -58,6 +59,7 @@ MAX_CONTACTS = 3  # ranked contact decisions tried before planning gives up
 GRASPING_MODES = ("grasp", "sweep")  # a close in these grasps something (an object, a tool): closing on nothing stops
 PLAN_ATTEMPTS = 2  # planning attempts per contact when a path search failed (OMPL is randomised)
 SETTLE_S = 0.3  # after the last phase, before the capture that verifies: the object comes to rest
+COMES_TO_REST = ("place", "rotate", "stand_up", "take_off")  # actions whose goal rests on what is under it
 ABORT_REST_S = 2.0  # an operator abort: how long the executor may take to come to rest on its path
 
 
@@ -146,8 +148,13 @@ class PipelineStages:
                 T_base_camera=frame.T_base_camera,
             )
         if ctx.goal.group_size is None:
-            seen = frame.intrinsics.unproject_depth_image(frame.depth)[ctx.goal.mask_init & np.isfinite(frame.depth)]
-            motion = stood_on_its_base(motion, seen, frame.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0]))
+            points = frame.intrinsics.unproject_depth_image(frame.depth)
+            known = np.isfinite(frame.depth)
+            seen = points[ctx.goal.mask_init & known]
+            up = frame.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+            motion = stood_on_its_base(motion, seen, up)
+            if instruction_action(ctx.instruction) in COMES_TO_REST:
+                motion = settled(motion, seen, points[~ctx.goal.mask_init & known], up)
         ctx.record.summary.object_motion = MotionRecord.of(motion)
         if not motion.ok:
             raise StageError(f"grounding refused: {motion.reason}")

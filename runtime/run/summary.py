@@ -50,7 +50,7 @@ class MotionRecord(Section):
     depth_residual_m: float | None
     T_base_motion: list[list[float]] | None = None  # with a calibration, when ok
     translation_base_m: list[float] | None = None
-    adjusted: str | None = None  # why the registration's motion was changed (a bottle turned end for end)
+    adjusted: str | None = None  # why the registration's motion was changed (see ADJUSTMENTS)
 
     @classmethod
     def of(cls, motion: ObjectMotion) -> MotionRecord:
@@ -68,8 +68,11 @@ class MotionRecord(Section):
             depth_residual_m=_finite(motion.depth_residual_m),
             T_base_motion=None if T_base is None else T_base.tolist(),
             translation_base_m=None if T_base is None else T_base[:3, 3].tolist(),
-            adjusted=motion.details.get("turned_end_for_end"),
+            adjusted="; ".join(motion.details[k] for k in ADJUSTMENTS if k in motion.details) or None,
         )
+
+
+ADJUSTMENTS = ("turned_end_for_end", "settled")  # ObjectMotion.details keys saying why the motion was changed
 
 
 class ContactRecord(Section):
