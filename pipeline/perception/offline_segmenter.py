@@ -16,9 +16,9 @@ moved object seen from another side can read as a neighbouring kind), so "the sc
 box-like thing.
 A plural shape word ("the yellow screws") names every instance, and with a colour word also the irregular
 regions of that colour a few small parts make when they touch (a pile). A part word ("the lid of the blue box")
-names the lid of the named object: a region of another colour attached
-to it from above (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the
-box's region (faces are the pieces between the edges inside it). With no chest seen open, of several regions
+names the lid of the named object: a region of another colour attached to it from above and resting on it along
+its width (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the box's region
+(faces are the pieces between the edges inside it). With no chest seen open, of several regions
 with a lid the largest is the chest (shut, it looks like a box, and outsizes a block of a paler shade beside it).
 Limits, by design of a no-model backend: brown is not separable from the wooden table, regions touching the
 image border are ignored (the floor, the robot base), touching objects of one colour and one saturation are one
@@ -80,6 +80,7 @@ ENCLOSED_TOP = 0.8  # a region with its object's just above this share of its to
 CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 BLEND_SATURATION = 0.8  # a lid's pixel along its box this much less saturated than the lid is a blend of the two
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
+LID_RESTS_ON = 0.8  # ... and rests on it along at least this share of its width (it may overhang a little)
 FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
 RANK_MARGIN = 0.15  # with no region of the shape's kinds: those fitting it within this of the best
 SHAPE_ONLY_FIT = 0.5  # ... and with no colour word, fitting it at least this well
@@ -312,10 +313,21 @@ def _attached_lid(whole: Instance, instances: list[Instance], any_shape: bool = 
             and over >= 0.5 * (a1 - a0)
             and (b0 + b1) / 2 < middle
             and bool((i.region.mask & near).any())
+            and _resting_share(i.region.mask, near) >= LID_RESTS_ON
             and not _inside(i.region.mask, own)
         )
 
     return max((i for i in instances if i is not whole and lid_like(i)), key=lambda i: i.region.area, default=None)
+
+
+def _resting_share(mask: np.ndarray, near: np.ndarray) -> float:
+    """Share of a region's columns whose lowest pixel lies on `near` (an object's region, dilated): a lid is
+    hinged on or lies on its box along its whole width; a thing behind the box only peeks out above it in part."""
+    v, u = np.nonzero(mask)
+    columns = np.unique(u)
+    bottoms = np.array([v[u == c].max() for c in columns])
+    below = np.clip(bottoms + 1, 0, mask.shape[0] - 1)
+    return float((near[bottoms, columns] | near[below, columns]).mean())
 
 
 def _top_face(rgb: np.ndarray, mask: np.ndarray) -> np.ndarray | None:

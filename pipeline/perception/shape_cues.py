@@ -27,6 +27,7 @@ PLATE_MIN_VALUE = 0.4  # ... and not dark, in the light or in a shadow (where it
 # darker shade: a white box's or chest's shaded faces keep at least 0.45 of its lit top's value in the sim's
 # light, a gray base under a light plate at most 0.35
 TWO_TONE_MAX_RATIO = 0.38
+BOX_MAX_ELONGATION = 2.6  # a block's side seen square-on: the sim's boxes are up to 2.5 times as tall as wide
 RESEMBLES = 0.9  # a kind that only resembles an older one (dustpan, rack, stand) scores at most this
 NOTCH_SHARE = 0.15  # notches narrower than this share of a region's smaller extent are closed (a rack's tines)
 # shading, on the brightest channel: a pixel is level when its 3x3 neighbourhood varies by at most LEVEL_STEP of its
@@ -44,7 +45,7 @@ MIN_SHADED_PX = 40
 class Cues:
     aspect: float  # bounding box width / height in the image
     elongation: float  # long / short side of the minimum-area rectangle
-    rect_fill: float  # area / minimum-area rectangle
+    rect_fill: float  # area / minimum-area rectangle, at most 1
     ellipse_iou: float  # overlap with the ellipse fitted to the outline
     closed_ellipse_iou: float  # the same with narrow notches closed (a plate seen through a rack's tines)
     corners: int  # vertices of the hull's polygon at 2 % of the perimeter
@@ -78,7 +79,8 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
     return Cues(
         aspect=float((np.ptp(u) + 1) / (np.ptp(v) + 1)),
         elongation=float(max(rw, rh) / max(min(rw, rh), 1.0)),
-        rect_fill=float(area / max(rw * rh, 1.0)),
+        # the outline runs through its edge pixels' centres, so a small region's count exceeds its rectangle's area
+        rect_fill=min(1.0, float(area / max(rw * rh, 1.0))),
         ellipse_iou=ellipse_iou,
         closed_ellipse_iou=_ellipse_iou(closed),
         corners=len(hull),
@@ -238,7 +240,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * _within(c.ellipse_iou, 0.0, 0.94, 0.03)
         * _within(c.edge_density, 0.0, 2.2, 0.8)
         * _within(c.rect_fill, 0.8, 1.0, 0.08)
-        * _within(c.elongation, 1.0, 2.0, 0.4)
+        * _within(c.elongation, 1.0, BOX_MAX_ELONGATION, 0.4)
         * (1.0 - curved if c.ramp_share is not None else 1.0)
         * (1.0 - plate_on_top),
         "lidded_box": hollow

@@ -235,3 +235,24 @@ def test_small_blocks_balls_and_standing_cans_are_told_by_their_shading(sim_prof
         assert iou(i.region.mask, truth[name]) > 0.8, name
         kinds[name] = i.kind
     assert kinds == {o["name"]: o["kind"] for o in objects}
+
+
+def test_a_bottle_lying_behind_an_open_chest_is_a_bottle_not_the_chests_lid(sim_profile_with, tmp_path):
+    """In the image the bottle touches the top of the chest's open lid and peeks out beside it: it rests on the
+    chest along part of its width only, where a lid rests on its box along all of it."""
+    chest = {"name": "chest", "kind": "lidded_box", "size_m": [0.123, 0.123, 0.063], "color": "dark_cyan"}
+    chest |= {"xy_m": [0.579, -0.07], "yaw_deg": -5.6, "lid_open_deg": 93.0}
+    bottle = {"name": "bottle", "kind": "bottle", "radius_m": 0.031, "height_m": 0.217, "color": "dark_yellow"}
+    bottle |= {"xy_m": [0.332, -0.014], "yaw_deg": -89.5, "lying": True}
+    path = tmp_path / "behind.yaml"
+    scene = {"name": "behind", "objects": [chest, bottle], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
+    path.write_text(yaml.safe_dump(scene))
+    _, camera = view(sim_profile_with, str(path))
+    with camera:
+        rgb, truth = camera.read().rgb, camera.object_masks()
+        lid_truth = camera.body_mask("chest_lid")
+    seg = OfflineSegmenter()
+    (found,) = seg.segment(rgb, "the yellow bottle")
+    assert iou(found.mask, truth["bottle"]) > 0.8
+    (lid,) = seg.segment(rgb, "the lid of the cyan box")
+    assert iou(lid.mask, lid_truth) > 0.6

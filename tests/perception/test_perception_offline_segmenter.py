@@ -169,3 +169,18 @@ def test_part_word_finds_the_differently_coloured_part_attached_to_the_object():
     assert parse_phrase("lid of the blue box").part == "lid"
     with pytest.raises(SegmentationError, match="names no colour or shape word"):
         seg.segment(img, "the lid")
+
+
+@pytest.mark.parametrize(
+    ("size_px", "why"),
+    [((9, 7), "a block far off: its outline runs through its edge pixels' centres, short of its pixel count"),
+     ((18, 46), "a block 2.5 times as tall as wide, seen square-on")],
+)
+def test_small_and_tall_blocks_are_blocks(size_px, why):
+    """Flat faces of one shade in a rectangle: a block, whatever its size and proportions in the sim's range."""
+    w, h = size_px
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    cv2.rectangle(img, (70, 30), (70 + w - 1, 30 + h - 1), (40, 160, 50), -1)
+    cv2.rectangle(img, (70, 30), (70 + w - 1, 30 + h // 4), (60, 200, 70), -1)  # its lit top face
+    found = OfflineSegmenter().segment(img, "the block")
+    assert [d.label for d in found] == ["green box"], why
