@@ -173,8 +173,10 @@ def test_part_word_finds_the_differently_coloured_part_attached_to_the_object():
 
 @pytest.mark.parametrize(
     ("size_px", "why"),
-    [((9, 7), "a block far off: its outline runs through its edge pixels' centres, short of its pixel count"),
-     ((18, 46), "a block 2.5 times as tall as wide, seen square-on")],
+    [
+        ((9, 7), "a block far off: its outline runs through its edge pixels' centres, short of its pixel count"),
+        ((18, 46), "a block 2.5 times as tall as wide, seen square-on"),
+    ],
 )
 def test_small_and_tall_blocks_are_blocks(size_px, why):
     """Flat faces of one shade in a rectangle: a block, whatever its size and proportions in the sim's range."""
