@@ -113,7 +113,12 @@ def plan_contacts(
         body = revolution_axis(pts) if ball_centre(pts) is None else None
         surface = (pts, normals) if body is None else body.completed(pts, normals)
         candidates, why = grasp_candidates(
-            *surface, cfg, robot.spec.gripper.max_width_m, support_height(pts, scene), None if body is None else pts
+            *surface,
+            cfg,
+            robot.spec.gripper.max_width_m,
+            support_height(pts, scene),
+            None if body is None else pts,
+            gripper.corners_tcp(robot.spec.gripper.max_width_m),
         )
         rejected.update(why)
     elif mode == "hinge":

@@ -29,7 +29,8 @@ RAISED_M = 0.02  # scene points this high just below an object and around it are
 SUPPORT_REACH_M = 0.04  # ... within this of its outline (the run's scene loses what lies within 1.5 cm of it) ...
 SUPPORT_POINTS = 5  # ... when there are this many (the gate's cloud has a point per cm)
 SUPPORT_CELL_M = 0.01  # the gate sees a support as points, in cells this large
-TABLE_CLEAR_M = 0.002  # a push's padded fingertips this far above the table
+TABLE_CLEAR_M = 0.002  # a push's padded fingertips (a side grasp's padded hand) this far above the table
+SIDE_MIN_GRIP_M = 0.02  # a side grasp's pads (vertical, PAD_HALF_WIDTH_M about the TCP) hold this much of its height
 FACES_MIN_CONCENTRATION = 0.65  # face_yaw: sides this concentrated on one direction (and those square to it) are flat
 SQUARE_MIN_DEG = 1.0  # a grasp's closing axis this close to the faces' normals is square already
 # a grasp from above pinching the object this many times wider than the narrowest pinch at the same spot closes
@@ -173,13 +174,17 @@ def grasp_candidates(
     max_width_m: float,
     support_z: float = 0.0,
     seen_points: np.ndarray | None = None,
+    gripper_tcp: np.ndarray | None = None,
 ) -> tuple[list[Candidate], dict[str, int]]:
-    """support_z: the height of a raised support the object stands on (support_height), 0 on the table. seen_points:
+    """support_z: the height of a raised support the object stands on (support_height), 0 on the table. gripper_tcp:
+    the padded gripper's corners (TCP frame, open): a grasp from the side is made no lower than the hand, turned
+    sideways, clears the table, and not at all when that leaves the pads too little of the object. seen_points:
     the points seen when `points` is a surface completed from them (a body of revolution): the fingers open and centre
     on the completed one, and close below the narrower width the seen points show between the pads (completed
     about an axis a few millimetres off, an upright bottle's shoulder read 8 mm wider than it is, and the fingers
     closed on it too lightly to hold it)."""
     rejected = {"too wide for the gripper": 0, "nothing between the fingers": 0, "across the object's slant": 0}
+    rejected["too low to grasp from the side"] = 0
     centroid = points.mean(axis=0)
     size = float(np.linalg.norm(np.percentile(points, 95, axis=0) - np.percentile(points, 5, axis=0)))
     top = float(np.percentile(points[:, 2], 98))
@@ -213,11 +218,18 @@ def grasp_candidates(
     # from the side: horizontal approach from the robot's side, closing axis horizontal
     toward = np.array([centroid[0], centroid[1], 0.0])
     toward /= max(np.linalg.norm(toward), 1e-9)
-    side_height = max(0.5 * (top + support_z), floor)
     for angle in np.radians(cfg.side_approach_deg):
         c, s = np.cos(angle), np.sin(angle)
         z = np.array([c * toward[0] - s * toward[1], s * toward[0] + c * toward[1], 0.0])
-        poses.append(frame(np.cross([0.0, 0.0, 1.0], z), z, np.array([centre_xy[0], centre_xy[1], side_height])))
+        T = frame(np.cross([0.0, 0.0, 1.0], z), z, np.zeros(3))
+        clear = 0.0 if gripper_tcp is None else -float(np.min((gripper_tcp @ T[:3, :3].T)[:, 2])) + TABLE_CLEAR_M
+        side_height = max(0.5 * (top + support_z), floor, clear)
+        held = min(top, side_height + PAD_HALF_WIDTH_M) - max(support_z, side_height - PAD_HALF_WIDTH_M)
+        if held < SIDE_MIN_GRIP_M:  # raised till the sideways hand clears the table, the pads pass over a low object
+            rejected["too low to grasp from the side"] += 1
+            continue
+        T[:3, 3] = [centre_xy[0], centre_xy[1], side_height]
+        poses.append(T)
         spots.append(None)
     # from above: squared to the flat sides (found on the whole object: the pads' own few points, at a slant, end on
     # a block's corners and blend both faces), else to the sides between the pads

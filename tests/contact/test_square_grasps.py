@@ -100,3 +100,26 @@ def test_a_block_seen_from_one_side_is_grasped_square_from_every_sweep_angle(yaw
     grasps = from_above(*seen_block(yaw_deg))
     assert grasps, "no grasp from above"
     assert max(off_deg(closing_deg(T), yaw_deg, 90.0) for T in grasps) < 3.0
+
+
+@pytest.mark.parametrize("height_m", [0.03, 0.057, 0.09])
+def test_a_grasp_from_the_side_keeps_the_sideways_hand_above_the_table_or_is_not_made(height_m):
+    """The hand turned sideways reaches further below its TCP than its fingers do from above: a side grasp at the
+    block's mid-height put it below the table (held-out runs refused every such grasp at contact). It is raised
+    till the padded hand clears the table while its pads still hold 2 cm of the block, or not made at all."""
+    from pipeline.contact.gripper import GripperBoxes
+    from safety.robot_model import RobotModel
+
+    robot = RobotModel()
+    gripper = GripperBoxes(robot, 0.01)
+    width = robot.spec.gripper.max_width_m
+    points, normals = block(20.0, size=(0.045, 0.05, height_m))
+    found, rejected = grasp_candidates(points, normals, ContactConfig(), width, gripper_tcp=gripper.corners_tcp(width))
+    sideways = [c for c in found if abs(c.T_contact[2, 2]) < 0.1]
+    for c in sideways:
+        assert gripper.lowest_z(c.T_contact, width) >= 0.0
+        assert height_m - (c.T_contact[2, 3] - 0.016) >= 0.02  # the pads (32 mm across) on 2 cm of the block
+    if height_m <= 0.03:
+        assert not sideways and rejected["too low to grasp from the side"] == len(ContactConfig().side_approach_deg)
+    else:
+        assert len(sideways) >= 1
