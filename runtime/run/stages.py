@@ -27,6 +27,7 @@ from pipeline.contact.types import ContactPlan
 from pipeline.grounding.compare import rotation_deg
 from pipeline.grounding.ground import ground
 from pipeline.grounding.group import ground_group
+from pipeline.grounding.level import kept_level
 from pipeline.grounding.settle import settled
 from pipeline.grounding.types import GroundingInput
 from pipeline.grounding.upright import stood_on_its_base
@@ -37,7 +38,7 @@ from pipeline.reasoning.reasoner import Reasoner, synthesize
 from pipeline.reasoning.types import ReasoningError
 from runtime.devices import Devices
 from runtime.messaging.messages import PlanSummary
-from runtime.run.contact import contact_plans, instruction_action
+from runtime.run.contact import COMES_TO_REST, PUTS_DOWN, contact_plans, instruction_action
 from runtime.run.context import RunContext, StageError
 from runtime.run.overlay import draw_tcp_poses
 from runtime.run.second_look import look_again
@@ -59,7 +60,6 @@ MAX_CONTACTS = 3  # ranked contact decisions tried before planning gives up
 GRASPING_MODES = ("grasp", "sweep")  # a close in these grasps something (an object, a tool): closing on nothing stops
 PLAN_ATTEMPTS = 2  # planning attempts per contact when a path search failed (OMPL is randomised)
 SETTLE_S = 0.3  # after the last phase, before the capture that verifies: the object comes to rest
-COMES_TO_REST = ("place", "rotate", "stand_up", "take_off")  # actions whose goal rests on what is under it
 ABORT_REST_S = 2.0  # an operator abort: how long the executor may take to come to rest on its path
 
 
@@ -153,8 +153,11 @@ class PipelineStages:
             seen = points[ctx.goal.mask_init & known]
             up = frame.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
             motion = stood_on_its_base(motion, seen, up)
+            if instruction_action(ctx.instruction) in PUTS_DOWN:
+                motion = kept_level(motion, seen, up)
             if instruction_action(ctx.instruction) in COMES_TO_REST:
-                motion = settled(motion, seen, points[~ctx.goal.mask_init & known], up)
+                table = -float(frame.T_base_camera[2, 3])  # the table top (base z = 0) along `up`
+                motion = settled(motion, seen, points[~ctx.goal.mask_init & known], up, table)
         ctx.record.summary.object_motion = MotionRecord.of(motion)
         if not motion.ok:
             raise StageError(f"grounding refused: {motion.reason}")

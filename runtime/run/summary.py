@@ -72,7 +72,7 @@ class MotionRecord(Section):
         )
 
 
-ADJUSTMENTS = ("turned_end_for_end", "settled")  # ObjectMotion.details keys saying why the motion was changed
+ADJUSTMENTS = ("turned_end_for_end", "kept_level", "settled")  # ObjectMotion.details keys: why it was changed
 
 
 class ContactRecord(Section):

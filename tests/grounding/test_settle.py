@@ -88,3 +88,22 @@ def test_a_goal_over_nothing_seen_is_kept():
     far_table = table(centre=(0.9, 0.5), half=0.05)
     motion = stand_up(rest_at=0.04)
     assert settled(motion, can, far_table, UP) is motion
+
+
+def test_a_goal_sunk_below_the_table_is_raised_onto_it_though_no_table_is_seen_beneath_it():
+    """The can stood up where it lay: the table beneath its goal was hidden by the can itself in the capture. The
+    table's own height (the base frame's z = 0) still holds it up; without it the goal would be kept."""
+    can = lying_can_seen_from_above()
+    sunk = stand_up(rest_at=-0.039, to=(0.5, 0.0))
+    scene = without_the_can(table())
+    out = settled(sunk, can, scene, UP, table_height=0.0)
+    assert bottom(out, can) == pytest.approx(REST_GAP_M, abs=0.003)
+    assert "into the table" in out.details["settled"]
+    assert settled(sunk, can, scene, UP) is sunk
+
+
+def test_a_goal_floating_over_no_seen_floor_is_not_lowered_to_the_table():
+    """Over a tall container's unseen floor: the table only holds a goal up, never pulls it down."""
+    can = lying_can_seen_from_above()
+    motion = stand_up(rest_at=0.04)
+    assert settled(motion, can, table(centre=(0.9, 0.5), half=0.05), UP, table_height=0.0) is motion
