@@ -503,7 +503,7 @@ def _twin_plan(
     for T, where in ((T_pre, "pre-contact"), (c.T_contact, "contact"), *arc):
         r = robot.ik(T, qs[-1] if qs else seed, settings=IK_SETTINGS, accept=accepts.of("approach"))
         if not r.success:
-            raise _Unreachable(f"{where} pose out of reach")
+            raise _Unreachable(f"{where} pose {_why_no_ik(robot, T, qs[-1] if qs else seed, accepts.of('approach'))}")
         qs.append(r.q)
     first = ""
     for k in _turns_to_try(c, motions, robot):
@@ -524,6 +524,14 @@ def _twin_plan(
             return plan if T_set is T_goal else replace(plan, T_goal=T_goal, T_set=T_set)
         first = first or why
     raise _Unreachable(first or "goal pose out of reach")
+
+
+def _why_no_ik(robot: RobotModel, T: np.ndarray, seed: np.ndarray, accept) -> str:
+    """Why no IK solution for T was accepted: none reaches it, or every one found collides (an operator reading
+    "out of reach" for an arm that reaches the pose but hits a neighbour or itself looks in the wrong place)."""
+    if accept is None or not robot.ik(T, seed, settings=IK_SETTINGS).success:
+        return "out of reach"
+    return "reached only in collision"
 
 
 def _turns_to_try(c: Candidate, motions: list[np.ndarray], robot: RobotModel) -> list[int]:
