@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 
 from pipeline.config import ChecksConfig
-from pipeline.perception.segmenter import Detection
+from pipeline.perception.segmenter import Detection, box_of
 
 
 @dataclass(frozen=True)
@@ -97,6 +97,8 @@ SAME_AREA_RATIO = 2.0  # a region this much larger or smaller than the target wa
 SAME_COLOUR = 40.0  # mean RGB distance within which a region is of the target's colour (shading, blending)
 UNCHANGED_LEVELS = 12.0  # a pixel within this many levels of the first image (blurred) did not change ...
 UNCHANGED_SHARE = 0.8  # ... and a region this much of whose pixels off the target's first place did not, was there
+OLD_MIN_SHARE = 0.2  # a region this much of which looks as before off the target's first place holds another object
+NEW_MIN_SHARE = 0.1  # a region's new part, at least this share of it, is the target (the rest was there before)
 
 
 def colour_change(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:
@@ -114,16 +116,17 @@ def unchanged_pixels(rgb_init: np.ndarray, rgb: np.ndarray) -> np.ndarray:
 
 
 def like_the_target(detections: list[Detection], rgb_init: np.ndarray, mask_init: np.ndarray, rgb: np.ndarray):
-    """Of several regions a phrase matches in a later image (a goal candidate, the capture after execution), the
-    one that is the target: regions that were already there (their pixels off the target's first place unchanged:
-    a part of another object, left uncovered when the target was put on it, that now reads as the phrase) are not;
+    """Of the regions a phrase matches in a later image (a goal candidate, the capture after execution), the one
+    that is the target: regions that were already there (their pixels off the target's first place unchanged: a
+    part of another object, left uncovered when the target was put on it, that now reads as the phrase) are not;
     of the rest, the only one whose area is within SAME_AREA_RATIO of the target's in the initial image and whose
     mean colour is within SAME_COLOUR of its; all of them when none or several are (an editor that left the object
-    where it was and drew it again is refused)."""
-    if len(detections) < 2:
-        return detections
+    where it was and drew it again is refused). Each region kept is cut to what is new in it (_new_part)."""
     still = unchanged_pixels(rgb_init, rgb) & ~mask_init
     detections = [d for d in detections if still[d.mask].mean() < UNCHANGED_SHARE] or detections
+    detections = [_new_part(d, still) for d in detections]
+    if len(detections) < 2:
+        return detections
     area0 = max(int(mask_init.sum()), 1)
     colour0 = rgb_init[mask_init].reshape(-1, 3).astype(np.float64).mean(axis=0)
 
@@ -136,6 +139,22 @@ def like_the_target(detections: list[Detection], rgb_init: np.ndarray, mask_init
 
     found = [d for d in detections if alike(d)]
     return found if len(found) == 1 else detections
+
+
+def _new_part(d: Detection, still: np.ndarray) -> Detection:
+    """The region less the pixels that look as they did off the target's first place (`still`), its largest piece:
+    an object put on or against one of its own colour (a ball on a plate, in a bowl, before a chest of that colour)
+    is one colour region with it, and what was there before is the other object. The region as it is when less
+    than OLD_MIN_SHARE of it was there before (a few blended edge pixels), or less than NEW_MIN_SHARE is new."""
+    if still[d.mask].mean() < OLD_MIN_SHARE:
+        return d
+    n, pieces, stats, _ = cv2.connectedComponentsWithStats((d.mask & ~still).astype(np.uint8), connectivity=8)
+    if n < 2:
+        return d
+    largest = pieces == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    if largest.sum() < NEW_MIN_SHARE * d.mask.sum():
+        return d
+    return Detection(largest, d.score, box_of(largest), d.label)
 
 
 def target_count_problems(detections: list[Detection], target: str) -> list[str]:

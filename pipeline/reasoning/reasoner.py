@@ -271,7 +271,7 @@ class Reasoner:
                     f"target '{enh.target}' matched {len(found)} regions (areas {areas} px): took the one "
                     f"of the target's size ({alike[0].area_px} px, {int(mask_init.sum())} px before)"
                 )
-                found = alike
+            found = alike  # each cut to what is new in it (a ball on a plate of its colour is one region with it)
             problems += checks.target_count_problems(found, enh.target)
             mask_goal = found[0].mask if len(found) == 1 else None
         if mask_goal is not None:

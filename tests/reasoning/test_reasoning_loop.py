@@ -217,3 +217,24 @@ def test_of_several_matches_in_the_goal_image_the_one_like_the_target_is_taken()
     goal[target0] = (60, 200, 60)
     twice = [det(moved), det(target0)]  # drawn again, left where it was too: refused as two
     assert len(like_the_target(twice, initial, target0, goal)) == 2
+
+
+def test_a_target_put_on_an_object_of_its_colour_is_cut_from_the_region_they_make():
+    """A cyan ball put on a cyan plate is one colour region with the plate in the goal image (and after the run):
+    the target is what is new in it, not the plate that was there before."""
+    from pipeline.perception.segmenter import Detection, box_of
+    from pipeline.reasoning.checks import like_the_target
+
+    yy, xx = np.mgrid[0:60, 0:80]
+    ball0 = (yy - 45) ** 2 + (xx - 12) ** 2 <= 36
+    plate = ((yy - 20) / 10.0) ** 2 + ((xx - 50) / 18.0) ** 2 <= 1.0
+    ball = (yy - 17) ** 2 + (xx - 50) ** 2 <= 36  # on the plate
+    initial = np.full((60, 80, 3), 150, np.uint8)
+    initial[plate], initial[ball0] = (20, 110, 120), (70, 210, 220)
+    goal = initial.copy()
+    goal[ball0], goal[ball] = (150, 150, 150), (70, 210, 220)
+    (taken,) = like_the_target([Detection(plate | ball, 1.0, box_of(plate | ball), "cyan")], initial, ball0, goal)
+    near_ball = (yy - 17) ** 2 + (xx - 50) ** 2 <= 9**2  # the change is measured blurred: 2-3 px around it
+    assert (taken.mask & ball).sum() >= 0.9 * ball.sum() and not (taken.mask & ~near_ball).any()
+    alone = Detection(ball, 1.0, box_of(ball), "cyan")  # a region that is the target alone is kept as it is
+    assert like_the_target([alone], initial, ball0, goal)[0].mask is ball
