@@ -7,13 +7,13 @@ words ("the red block", "the scale", "the dark blue bottle"). The image is cut i
 each region is of the kind its silhouette and inner edges fit best (shape_cues.py). A colour word keeps the
 regions of that colour; a shape word keeps those classified as one of its kinds ("box" is any box, a lidded one
 too; "block" and "cube" only a plain one), and with a colour word, when none of that colour is classified so,
-those of that colour that fit the shape best (at least loosely; when none does, every one of that colour: the
-colour decides and the shape only ranks). A shade word (dark, light) keeps, among several of the colour, the
-darker or paler ones; white stands for gray and gray for white when nothing is named so (a white lid in the
-shade, a gray one in the light). A lid of another colour is a part of its box, not an object of its own. A shape word
-alone keeps the regions of its kinds (when there is none, those fitting it well, the best within a margin; a
-moved object seen from another side can read as a neighbouring kind), so "the scale" is the scale, not every
-box-like thing.
+those of that colour that fit the shape best (at least loosely; when none does, every one of that colour but
+those surely of another kind: the colour decides and the shape only ranks). A shade word (dark, light) keeps,
+among several of the colour, the darker or paler ones; white stands for gray and gray for white when nothing is
+named so (a white lid in the shade, a gray one in the light). A lid of another colour is a part of its box, not an
+object of its own. A shape word alone keeps the regions of its kinds (when there is none, those fitting it well,
+the best within a margin; a moved object seen from another side can read as a neighbouring kind), so "the scale"
+is the scale, not every box-like thing.
 A plural shape word ("the yellow screws") names every instance, and with a colour word also the irregular
 regions of that colour a few small parts make when they touch (a pile). A part word ("the lid of the blue box")
 names the lid of the named object: a region of another colour attached to it from above and resting on it along
@@ -89,6 +89,7 @@ PILE_AREA_FRAC = 5e-3  # a pile of small parts (screws) is at most this share of
 PILE_FILL, PILE_ELLIPSE = 0.75, 0.7  # ... and fills less of its rectangle, or of its ellipse, than any solid does
 FRAGMENT_AREA_FRAC = 2 * SPECK_AREA_FRAC  # a region this small of the colour is a part, partly seen
 CONFIDENT_KIND = 0.8  # a region scoring this for some kind is an object of that kind, not a pile
+SIZE_KINDS = frozenset({"screw"})  # kinds told by size alone (shape_cues: a speck)
 
 
 @dataclass(frozen=True)
@@ -221,11 +222,20 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
             found = exact
         elif want.colour is None:  # the shape alone decides: a region that fits it well, if none is of its kind
             found = [i for i in found if fit[id(i)] >= max(SHAPE_ONLY_FIT, best - RANK_MARGIN)]
-        else:  # the colour decides; the shape ranks: the best fits (a loose bound), or all of that colour
-            found = [i for i in found if fit[id(i)] >= max(loose, best - RANK_MARGIN)] if best >= loose else found
+        elif best >= loose:  # the colour decides; the shape ranks: the best fits (a loose bound) ...
+            found = [i for i in found if fit[id(i)] >= max(loose, best - RANK_MARGIN)]
+        else:  # ... or all of that colour but those surely of another kind (a chest is no block)
+            found = [i for i in found if not _surely_other(i, kinds)] or found
     if want.shade is not None and len(found) > 1:
         found = _of_shade(found, want.shade)
     return sorted(found, key=lambda i: (-_score(i, want), -i.region.area))
+
+
+def _surely_other(instance: Instance, kinds: frozenset[str]) -> bool:
+    """Whether a region is confidently of a kind the phrase does not name. A speck's kind is told by its size
+    alone: a far or half-hidden object of any kind reads as one, so a speck is never surely another kind."""
+    kind = instance.kind
+    return kind not in kinds and kind not in SIZE_KINDS and instance.scores.get(kind, 0.0) >= CONFIDENT_KIND
 
 
 def _piles(rgb: np.ndarray, others: list[Instance], want: ObjectPhrase) -> list[Instance]:
