@@ -4,7 +4,7 @@ The goal image's depth is estimated, not measured, and an object whose pose chan
 is registered against a goal surface it shares little of with its start: the goal may come out centimetres above
 the table, in the right place as the camera sees it. The arm then lets it drop from there (a can may topple), and
 the achieved pose, resting on the table, is judged off a goal nothing could reach. An object put down, stood up or
-turned ends at rest, so its lowest point (of its surface completed where its shape tells the unseen side) is set
+taken off ends at rest, so its lowest point (of its surface completed where its shape tells the unseen side) is set
 REST_GAP_M above the highest scene point beneath it, when it floats more than FLOATING_M above that, or has sunk
 into it (the goal's depth a few millimetres low put a box 4 mm into the plate it goes on: held-out seeds 8436 and
 8640, every grasp refused as "placed object overlaps the scene"), or below the table (a bottle stood up 39 mm into

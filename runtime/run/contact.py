@@ -26,7 +26,7 @@ from safety.robot_model import RobotModel
 MODES: dict[str, ContactMode] = {"push": "push", "close": "hinge"}  # instruction action -> mode (else: grasp)
 TABLE_MARGIN_M = 0.002
 PUTS_DOWN = ("place", "take_off")  # actions that carry their object elsewhere without turning it over
-COMES_TO_REST = ("place", "rotate", "stand_up", "take_off")  # actions whose object ends resting on what is under it
+COMES_TO_REST = ("place", "stand_up", "take_off")  # actions that set their object down (a turn in place does not)
 
 
 def contact_mode(instruction: str) -> ContactMode:

@@ -122,7 +122,12 @@ def _at_rest(
     motion = settled(motion, seen, scene, up, -float(before.T_base_camera[2, 3]))
     if motion is achieved.registration:
         return achieved
-    return replace(achieved, R=motion.R, t=motion.t, registration=motion)
+    # the same change made to the achieved motion as measured (it may differ from the registration's own: a turn
+    # about a symmetry axis taken from the goal's hint)
+    reg = achieved.registration
+    A_R = motion.R @ reg.R.T
+    A_t = motion.t - A_R @ reg.t
+    return replace(achieved, R=A_R @ achieved.R, t=A_R @ achieved.t + A_t, registration=motion)
 
 
 def lid_shut(after: RGBDFrame, mask_lid: np.ndarray, comparison: Comparison, tol_deg: float) -> Verification:
