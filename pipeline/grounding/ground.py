@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.depth_align import DepthAlignment, DepthAlignmentError, fit_depth_alignment
-from pipeline.grounding.hypotheses import face_hypotheses, sweep_hypotheses
+from pipeline.grounding.hypotheses import ball_hypotheses, face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.select import select_motion
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
@@ -103,7 +103,7 @@ def ground(
     view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel)
     up = _up_direction(points0[background & np.isfinite(depth0)], T_base_camera, rng)
     sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
-    candidates = fits + face_hypotheses(view0, view1) + sweep
+    candidates = fits + face_hypotheses(view0, view1) + ball_hypotheses(view0, view1) + sweep
     view_score, sim, hinted = select_motion(candidates, view0, view1, K, size, cfg, hints)
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold

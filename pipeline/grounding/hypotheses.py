@@ -6,6 +6,10 @@ yaw(a) . tilt(theta) . yaw(b) about the normal, each with the translation that a
 covers the likely motions at a coarse step. A vectorised render-and-compare check (soft silhouette, depth and
 colour agreement at a coarse tolerance, both ways) keeps the few worth refining.
 
+A ball shows no turn, and where it went is the centre of the sphere its seen points lie on: the centres fitted
+in both views give its shift however little of it the goal shows (a ball put into a bowl shows its top over the
+wall, whose centroid is not that of the front the capture saw).
+
 A sweep step is too coarse for boxes: after a tilt, a near-cubic box turned 20-30 deg from the truth looks
 more like a wrong face than the right one. Box-like objects show two or three planar faces, so the frames of
 their two dominant perpendicular faces in the two views give the rotation up to how the axes map (24 cases)
@@ -15,9 +19,11 @@ to within a degree or two, however far the object turned; a point-to-plane slide
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
+from pipeline.contact.symmetry import ball_centre
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View
 
@@ -31,6 +37,7 @@ FACE_TOL_DEG = 12.0  # normals within this angle belong to one planar face
 MIN_FACE_POINTS = 5
 FACE_POINTS = 400  # normals looked at to find the faces
 SHIFT_ITERATIONS = 5
+BALL_FIT_REL = 0.05  # the goal's points lie on the capture's ball: median distance off it / its radius
 
 
 def _signed_permutations() -> np.ndarray:
@@ -173,6 +180,23 @@ def face_hypotheses(view0: View, view1: View) -> list[Similarity]:
         A = np.einsum("mki,mkj->mij", n, n) + 1e-3 * k * np.eye(3)
         t = t + np.linalg.solve(A, np.einsum("mki,mk->mi", n, r)[..., None])[..., 0]  # point-to-plane, shift only
     return [Similarity(1.0, R, tt) for R, tt in zip(rotations, t, strict=True)]
+
+
+def ball_hypotheses(view0: View, view1: View) -> list[Similarity]:
+    """The shift (no turn) from the centre of the ball the capture's cloud lies on to the centre of a ball of the
+    same radius fitted to the goal's cloud, however little of it that shows (a cap over a bowl's wall is too
+    small a part of a sphere to tell a ball by itself); none when either is no ball."""
+    c0 = ball_centre(view0.cloud)
+    if c0 is None:
+        return []
+    radius = float(np.median(np.linalg.norm(view0.cloud - c0, axis=1)))
+    seen = view1.cloud.mean(axis=0)
+    start = seen + radius * seen / np.linalg.norm(seen)  # behind the seen surface, away from the camera
+    fit = least_squares(lambda c: np.linalg.norm(view1.cloud - c, axis=1) - radius, start, loss="soft_l1")
+    off = np.abs(np.linalg.norm(view1.cloud - fit.x, axis=1) - radius)
+    if float(np.median(off)) > BALL_FIT_REL * radius:
+        return []
+    return [Similarity(1.0, np.eye(3), fit.x - c0)]
 
 
 def sweep_hypotheses(

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 
 @dataclass(frozen=True)
@@ -21,6 +22,7 @@ class IcpTarget:
         import open3d as o3d
 
         self.o3d = o3d
+        self.points = points
         self.pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
         self.pcd.normals = o3d.utility.Vector3dVector(normals)
 
@@ -37,3 +39,10 @@ class IcpTarget:
             reg.ICPConvergenceCriteria(max_iteration=iterations),
         )
         return IcpResult(np.asarray(result.transformation), float(result.fitness), float(result.inlier_rmse))
+
+    def explained(self, moved: np.ndarray, max_corr_m: float) -> float:
+        """Share of the goal points within max_corr_m of the moved source cloud: ICP's fitness the other way round.
+        A goal that shows only part of the object (put into a bowl, its sides hidden by the wall) is all explained
+        by the right motion, while only part of the source can find a counterpart in it."""
+        dist, _ = cKDTree(moved).query(self.points)
+        return float(np.mean(dist <= max_corr_m))
