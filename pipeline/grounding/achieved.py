@@ -13,7 +13,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drivers.types import RGBDFrame
-from pipeline.grounding.compare import Symmetry, object_centre, object_symmetry
+from pipeline.grounding.compare import Symmetry, object_centre, object_symmetry, square_footprint_axis
 from pipeline.grounding.ground import ground
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity
@@ -28,7 +28,8 @@ class AchievedMotion:
     """x_after = R x_before + t of the object (camera frame), with what comparing it needs.
 
     registration: grounding's result between the captures (None for a ball, measured by its centre alone);
-    symmetry: the turns the initial points say no image can show (None for a hinged part: its turn is judged).
+    symmetry: the turns the initial points say no image can show (None for a hinged part: its turn is judged);
+    quarter_turn_axis: the vertical (camera frame) when the object is a box on a square footprint.
     """
 
     R: np.ndarray
@@ -36,6 +37,7 @@ class AchievedMotion:
     centre_camera: np.ndarray  # the object's seen centre in the first capture
     symmetry: Symmetry | None
     registration: ObjectMotion | None
+    quarter_turn_axis: np.ndarray | None = None
 
     @property
     def ok(self) -> bool:
@@ -111,4 +113,5 @@ def measure_achieved(
     up_camera = before.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
     hints = [] if expected is None else expected_hints(*expected, centre, up_camera, symmetry)
     motion = ground(inp, features, config, T_base_camera=before.T_base_camera, hints=hints)
-    return AchievedMotion(motion.R, motion.t, centre, symmetry, motion)
+    quarter = square_footprint_axis(points, up_camera) if symmetry is None and anchor_before is None else None
+    return AchievedMotion(motion.R, motion.t, centre, symmetry, motion, quarter)

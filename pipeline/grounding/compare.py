@@ -9,7 +9,9 @@ revolution (an upright can, a bottle) shows no turn about its own axis, so that 
 position is compared on the axis (the centroid of the seen side swings with the invisible turn); one whose ends
 look alike (a can: one radius all along) shows no half turn end for end either (a can stood up on its other end
 is stood up), so the smaller of the two errors counts; a ball shows no turn at all and is compared at its
-centre. All are recognised from the initial points.
+centre. A box whose footprint is square (sides within SAME_SIDE_M, the simulator truth's own rule) shows no
+quarter turn about the vertical either: the smallest error over the four counts. All
+are recognised from the initial points.
 """
 
 from __future__ import annotations
@@ -20,11 +22,14 @@ from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
+from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from pipeline.contact.symmetry import TOLERANCE_REL, revolution_axis
 
 INTENDED_DEG = 10.0
+SAME_SIDE_M = 0.005  # a box's sides this close are one length: a turn swapping them does not show
+RECTANGLE_FILL = 0.9  # a box's footprint fills its smallest rectangle; a disc fills pi/4 of it
 
 
 def rotation_deg(R: np.ndarray) -> float:
@@ -63,6 +68,30 @@ def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
     if off <= TOLERANCE_REL * float(np.linalg.norm(np.ptp(P, axis=0))):
         return Symmetry(centre, None)
     return Symmetry(axis.point, axis.direction, axis.ends_alike)
+
+
+def square_footprint_axis(points_camera: np.ndarray, up_camera: np.ndarray) -> np.ndarray | None:
+    """The vertical (camera frame) when the object is a box standing on a square footprint, so that turned a
+    quarter about the vertical it shows the same outline; None otherwise. points_camera (N, 3): its seen points;
+    up_camera: the table's normal. Its print is not read (a box whose texture shows the quarter turn counts as
+    square too, as it does for the simulator's truth); the seen points' rectangle is off by up to 5 mm a side."""
+    from cv2 import minAreaRect
+
+    P = np.asarray(points_camera, dtype=np.float64)
+    if len(P) < 50:
+        return None
+    up = up_camera / np.linalg.norm(up_camera)
+    e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    flat = np.column_stack([P @ e1, P @ np.cross(up, e1)]).astype(np.float32)
+    (_, _), (a, b), _ = minAreaRect(flat)
+    if a * b <= 0 or float(ConvexHull(flat).volume) < RECTANGLE_FILL * a * b or abs(a - b) > SAME_SIDE_M:
+        return None
+    return up
+
+
+def quarter_turn(axis: np.ndarray, k: int) -> np.ndarray:
+    return Rotation.from_rotvec(k * np.pi / 2 * axis).as_matrix()
 
 
 def without_turn_about(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
@@ -105,7 +134,7 @@ class Comparison(BaseModel):
     tilt_error_deg: float
     twist_judged: bool
     tilt_judged: bool
-    symmetry: Literal["none", "ball", "revolution", "revolution_ends_alike"]
+    symmetry: Literal["none", "ball", "revolution", "revolution_ends_alike", "quarter_turns"]
     position_tol_m: float
     rotation_tol_deg: float
 
@@ -121,9 +150,11 @@ def compare(
     position_tol_m: float,
     rotation_tol_deg: float,
     symmetry: Symmetry | None = None,
+    quarter_turn_axis: np.ndarray | None = None,
 ) -> Comparison:
     """Verdict from the goal and achieved motions (x' = R x + t, camera frame) of an object centred at centre;
-    with a symmetry, positions are compared at its centre and turns it hides are not judged."""
+    with a symmetry, positions are compared at its centre and turns it hides are not judged; with a quarter-turn
+    axis (square_footprint_axis), the goal turned a quarter about it through the centre is the goal too."""
     if symmetry is not None:
         centre_camera = symmetry.centre
     p_goal = goal_R @ centre_camera + goal_t
@@ -135,6 +166,8 @@ def compare(
     if symmetry is not None and symmetry.axis is not None:
         seen_alike = [R_error, R_error @ half_turn_across(symmetry.axis)] if symmetry.ends_alike else [R_error]
         R_error = min((without_turn_about(R, symmetry.axis) for R in seen_alike), key=rotation_deg)
+    elif quarter_turn_axis is not None:  # goal_R S for a quarter turn S is the goal as well: S^T R_error
+        R_error = min((quarter_turn(quarter_turn_axis, k).T @ R_error for k in range(4)), key=rotation_deg)
     twist_error, tilt_error = twist_tilt_deg(to_base(R_error))
     turns_seen = symmetry is None or symmetry.axis is not None  # no turn of a ball shows
     judge_twist, judge_tilt = turns_seen and goal_twist >= INTENDED_DEG, turns_seen and goal_tilt >= INTENDED_DEG
@@ -165,7 +198,7 @@ def compare(
         tilt_error_deg=tilt_error,
         twist_judged=judge_twist,
         tilt_judged=judge_tilt,
-        symmetry=_symmetry_name(symmetry),
+        symmetry="quarter_turns" if symmetry is None and quarter_turn_axis is not None else _symmetry_name(symmetry),
         position_tol_m=position_tol_m,
         rotation_tol_deg=rotation_tol_deg,
     )

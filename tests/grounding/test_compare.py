@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.compare import Symmetry, compare, object_symmetry
+from pipeline.grounding.compare import Symmetry, compare, object_symmetry, square_footprint_axis
 
 
 def yaw(deg: float) -> np.ndarray:
@@ -16,7 +16,7 @@ def yaw(deg: float) -> np.ndarray:
 CAM = np.eye(3)  # camera frame == base frame in these cases: the base z axis is the camera's
 
 
-def judge(goal_R, goal_t, achieved_R, achieved_t, centre, R_base_camera=CAM, symmetry=None):
+def judge(goal_R, goal_t, achieved_R, achieved_t, centre, R_base_camera=CAM, symmetry=None, quarter_turn_axis=None):
     """compare() with a 3 cm / 15 deg tolerance."""
     return compare(
         goal_R=goal_R,
@@ -28,6 +28,7 @@ def judge(goal_R, goal_t, achieved_R, achieved_t, centre, R_base_camera=CAM, sym
         position_tol_m=0.03,
         rotation_tol_deg=15.0,
         symmetry=symmetry,
+        quarter_turn_axis=quarter_turn_axis,
     )
 
 
@@ -178,3 +179,43 @@ def test_a_bottle_does_not_look_the_same_end_for_end(radius, length):
 
     seen = object_symmetry(lying_body(bottle, length, -20.0))
     assert seen is None or not seen.ends_alike
+
+
+def box_top_and_sides(sides_m, yaw_deg: float, centre=(0.1, 0.0, 0.8), step_m: float = 0.002) -> np.ndarray:
+    """A box's top face and two of its sides (camera frame == base frame, z up), turned by yaw about z."""
+    a, b, h = sides_m
+
+    def span(low: float, high: float) -> np.ndarray:
+        return np.linspace(low, high, int((high - low) / step_m) + 1)  # both edges: the outline is the box's
+
+    u, v = np.meshgrid(span(-a / 2, a / 2), span(-b / 2, b / 2))
+    top = np.column_stack([u.ravel(), v.ravel(), np.full(u.size, h)])
+    w, z = np.meshgrid(span(-a / 2, a / 2), span(0.0, h))
+    front = np.column_stack([w.ravel(), np.full(w.size, -b / 2), z.ravel()])
+    q, z = np.meshgrid(span(-b / 2, b / 2), span(0.0, h))
+    side = np.column_stack([np.full(q.size, a / 2), q.ravel(), z.ravel()])
+    return np.vstack([top, front, side]) @ yaw(yaw_deg).T + np.asarray(centre)
+
+
+def test_a_box_on_a_square_footprint_is_told_from_an_oblong_one_and_a_can():
+    up = np.array([0.0, 0.0, 1.0])
+    assert square_footprint_axis(box_top_and_sides((0.060, 0.056, 0.044), 37.0), up) is not None
+    assert square_footprint_axis(box_top_and_sides((0.060, 0.048, 0.044), 37.0), up) is None
+    angle, height = np.meshgrid(np.linspace(0, 2 * np.pi, 120), np.linspace(0, 0.1, 30))
+    can = np.column_stack([0.03 * np.cos(angle.ravel()), 0.03 * np.sin(angle.ravel()), height.ravel()])
+    assert square_footprint_axis(can, up) is None  # a disc fills pi/4 of its square
+
+
+def test_a_quarter_turn_a_square_box_hides_is_not_held_against_it():
+    """Rotated by 60 deg, a box on a square footprint registered turned by 150 (or -30) is where its goal puts it:
+    no capture tells the two apart; 30 deg short of either is still a wrong turn."""
+    c = np.array([0.1, 0.0, 0.8])
+    up = np.array([0.0, 0.0, 1.0])
+    goal = (yaw(60), about_centre(yaw(60), c))
+    for achieved_deg in (150.0, -30.0, 62.0):
+        v = judge(*goal, yaw(achieved_deg), about_centre(yaw(achieved_deg), c), c, quarter_turn_axis=up)
+        assert v.ok and v.twist_error_deg < 3 and v.symmetry == "quarter_turns", (achieved_deg, v.reason)
+    short = judge(*goal, yaw(30), about_centre(yaw(30), c), c, quarter_turn_axis=up)
+    assert not short.ok and "turned 30.0 deg off" in short.reason
+    plain = judge(*goal, yaw(150), about_centre(yaw(150), c), c)
+    assert not plain.ok
