@@ -23,6 +23,7 @@ class IcpTarget:
 
         self.o3d = o3d
         self.points = points
+        self.tree = cKDTree(points)
         self.pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
         self.pcd.normals = o3d.utility.Vector3dVector(normals)
 
@@ -40,9 +41,10 @@ class IcpTarget:
         )
         return IcpResult(np.asarray(result.transformation), float(result.fitness), float(result.inlier_rmse))
 
-    def explained(self, moved: np.ndarray, max_corr_m: float) -> float:
-        """Share of the goal points within max_corr_m of the moved source cloud: ICP's fitness the other way round.
-        A goal that shows only part of the object (put into a bowl, its sides hidden by the wall) is all explained
-        by the right motion, while only part of the source can find a counterpart in it."""
-        dist, _ = cKDTree(moved).query(self.points)
-        return float(np.mean(dist <= max_corr_m))
+    def overlap(self, moved: np.ndarray, max_corr_m: float) -> float:
+        """The larger share of either cloud within max_corr_m of the other: the moved source's (ICP's fitness) or the
+        goal's. A goal that shows only part of the object (put into a bowl, its sides hidden by the wall) is all
+        explained by the right motion, while only part of the source can find a counterpart in it."""
+        to_goal, _ = self.tree.query(moved)
+        to_source, _ = cKDTree(moved).query(self.points)
+        return max(float(np.mean(to_goal <= max_corr_m)), float(np.mean(to_source <= max_corr_m)))

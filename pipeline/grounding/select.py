@@ -80,13 +80,9 @@ def _refine(
     T0[:3, :3], T0[:3, 3] = sim.R, sim.t
     max_corr = cfg.icp_max_corr_rel * size
     source = sim.scale * cloud0
-
-    def fitness(T: np.ndarray, icp_fitness: float) -> float:
-        return max(icp_fitness, target.explained(source @ T[:3, :3].T + T[:3, 3], max_corr))
-
     res = target.refine(source, T0, max_corr)
-    placed = fitness(T0, target.refine(source, T0, max_corr, iterations=0).fitness)
-    refined = fitness(res.T, res.fitness)
+    placed = target.overlap(sim.apply(cloud0), max_corr)
+    refined = target.overlap(source @ res.T[:3, :3].T + res.T[:3, 3], max_corr)
     if refined < MIN_FITNESS or refined < placed - DRIFT_MARGIN:  # ICP made it worse: keep it as placed
         return (sim, placed) if placed >= MIN_FITNESS else None
     dR = res.T[:3, :3] @ sim.R.T
