@@ -31,6 +31,11 @@ class ContactConfig(StrictModel):
     push_tilt_deg: float = Field(
         default=15.0, ge=0, le=60, description="push: the hand tilted back so only the fingertips touch, low"
     )
+    carry_when_no_push: bool = Field(
+        default=True,
+        description="push: when no push can be made (no room behind the object), pick the object up and set it "
+        "down where the push would have left it",
+    )
     hinge_contact_fraction: float = Field(
         default=0.8, gt=0, le=1, description="arc push: contact this far out from the hinge, part extent = 1"
     )

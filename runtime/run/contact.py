@@ -16,7 +16,7 @@ from pipeline.contact.clouds import SceneClouds
 from pipeline.contact.gripper import GripperBoxes
 from pipeline.contact.planner import plan_contacts
 from pipeline.contact.symmetry import turn_deg
-from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan
+from pipeline.contact.types import ContactConfig, ContactMode, ContactPlan, ContactResult
 from pipeline.reasoning.instruction import parse_instruction
 from runtime.run.context import RunContext, StageError
 from runtime.run.summary import ContactRecord
@@ -71,14 +71,50 @@ def contact_config(ctx: RunContext, robot: RobotModel) -> ContactConfig:
 
 
 def contact_plans(ctx: RunContext, clouds: SceneClouds, robot: RobotModel, q_start: np.ndarray) -> list[ContactPlan]:
-    """Ranked contact plans, recorded; StageError with pipeline.contact's rejection counts when there is none."""
+    """Ranked contact plans, recorded; StageError with pipeline.contact's rejection counts when there is none.
+
+    A push with no room for the hand behind the object (a neighbour within the closed fingers' depth, the standoff
+    and the gate's padding) is carried instead when the profile allows it: the goal is where the object ends, and a
+    grasp set down there reaches it without the hand going behind."""
     mode = contact_mode(ctx.instruction)
-    motion = ctx.motion.T_base
     config = contact_config(ctx, robot)
-    result = plan_contacts(
+    result = _plan(ctx, clouds, robot, q_start, mode, config)
+    carried_because = None
+    if mode == "push" and not result.ok and config.carry_when_no_push:
+        carried_because = f"no feasible push: {result.reason}"
+        mode, result = "grasp", _plan(ctx, clouds, robot, q_start, "grasp", config)
+    ctx.record.summary.contact = ContactRecord(
+        mode=mode,
+        carried_because=carried_because,
+        candidates=result.candidates,
+        plans=len(result.plans),
+        rejected=result.rejected,
+        turn_from_grounded_deg=[round(turn_deg(plan.T_motion, ctx.motion.T_base), 1) for plan in result.plans],
+    )
+    if not result.ok:
+        raise StageError(
+            f"{carried_because}; no feasible carry instead: {result.reason}"
+            if carried_because
+            else f"no feasible {mode}: {result.reason}"
+        )
+    return [
+        replace(plan, source=f"pipeline.contact #{rank} score {plan.score:.2f}")
+        for rank, plan in enumerate(result.plans, start=1)
+    ]
+
+
+def _plan(
+    ctx: RunContext,
+    clouds: SceneClouds,
+    robot: RobotModel,
+    q_start: np.ndarray,
+    mode: ContactMode,
+    config: ContactConfig,
+) -> ContactResult:
+    return plan_contacts(
         clouds.target,
         clouds.scene,
-        motion,
+        ctx.motion.T_base,
         robot,
         mode=mode,
         config=config,
@@ -92,16 +128,3 @@ def contact_plans(ctx: RunContext, clouds: SceneClouds, robot: RobotModel, q_sta
         # (the hand let go of a stood-up bottle sideways, low: link6 came down into the padded table)
         release_world=CollisionWorld(robot, ctx.profile.safety, points=clouds.scene),
     )
-    ctx.record.summary.contact = ContactRecord(
-        mode=mode,
-        candidates=result.candidates,
-        plans=len(result.plans),
-        rejected=result.rejected,
-        turn_from_grounded_deg=[round(turn_deg(plan.T_motion, motion), 1) for plan in result.plans],
-    )
-    if not result.ok:
-        raise StageError(f"no feasible {mode}: {result.reason}")
-    return [
-        replace(plan, source=f"pipeline.contact #{rank} score {plan.score:.2f}")
-        for rank, plan in enumerate(result.plans, start=1)
-    ]

@@ -116,6 +116,7 @@ def _tables(s: RunSummary) -> list[str]:
                 "Contact",
                 [
                     ("mode", c.mode),
+                    *([("carried instead of pushed", c.carried_because)] if c.carried_because else []),
                     ("candidates", c.candidates),
                     ("ranked plans", c.plans),
                     ("ruled out", c.rejected),

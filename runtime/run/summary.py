@@ -77,6 +77,8 @@ ADJUSTMENTS = ("turned_end_for_end", "kept_level", "settled")  # ObjectMotion.de
 
 class ContactRecord(Section):
     mode: str
+    # a push carried instead (pipeline.contact carry_when_no_push): why no push could be made
+    carried_because: str | None = None
     candidates: int
     plans: int
     rejected: dict[str, int]  # why candidates were ruled out, with how many each reason ruled out
