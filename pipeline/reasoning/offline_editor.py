@@ -257,9 +257,12 @@ class OfflineEditor(ImageEditor):
             return _take_off(instr, plane, fx, fy, table)
         if instr.action == "push":
             direction = {"left": -right, "right": right, "away": away, "toward": -away}[instr.direction]
-            problem = table.problem(fx, direction * instr.distance_m)
+            problem = table.problem(fx, direction * instr.distance_m, pushed=True)
             if problem is not None:
                 raise GeometryError(f"cannot {instr.canonical()}: where it would end is {problem}")
+            blocked = table.in_the_way(fx, direction * instr.distance_m)
+            if blocked is not None:
+                raise GeometryError(f"cannot {instr.canonical()}: {blocked}")
             return eye, zero, direction * instr.distance_m
         # stand up: turn the long axis vertical with the wider end (a bottle's base, not its neck) down; a body with
         # equal ends keeps its visible side facing the camera. +90 deg about n x axis takes the +axis end down.

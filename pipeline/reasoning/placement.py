@@ -4,7 +4,8 @@ sight, found from the depth frame alone.
 The offline editor asks for a spot in a relation to a reference ("behind the bowl"): candidates fan out from the
 ideal one (straight behind, just clear of the reference) to nearby directions and a little farther, and the first
 that passes every check is taken; when none does, the refusal says what stood in the way of each. A spot is
-  free       no other object's points (seen above the table) within the object's footprint plus a gap,
+  free       no other object's points (seen above the table) within the object's footprint plus a gap (a place:
+             the disc of its radius, where the fingers open; a push's end: its own outline, and nothing on its way),
   supported  the table is under it (the depth there is the table's, not the floor's beyond its edge),
   in reach   its centre within the reach band around the robot base's vertical axis (needs T_base_camera),
   in view    most of the moved object in the image and not hidden behind a nearer object.
@@ -28,6 +29,8 @@ HIDDEN_M = 0.01  # the scene this much nearer than the moved object hides it
 MAX_OFF_TABLE = 0.05  # fractions of the footprint / the object allowed off the table / hidden / out of the image
 MAX_HIDDEN = 0.5
 MAX_OUT_OF_VIEW = 0.3
+PATH_STEP_M = 0.01  # a push's path checked this often
+PATH_CLEAR_M = 0.005  # how near the pushed object may pass another
 
 
 @dataclass(frozen=True)
@@ -35,6 +38,7 @@ class PlacementConfig:
     # centre's distance from the base's vertical axis [m]: nearer, the arm folds onto itself reaching down there
     reach_m: tuple[float, float] = (0.28, 0.68)
     gap_m: float = 0.02  # free table between the placed object and any other [m]
+    pushed_gap_m: float = 0.01  # between a pushed object's outline and any other where it ends (no fingers beside)
     beside_gap_m: float = 0.04  # footprint to footprint when placed beside a reference, at first [m]
     farther_m: tuple[float, ...] = (0.0, 0.02, 0.04)  # tried beyond that
     turns_deg: tuple[float, ...] = (0.0, 15.0, -15.0, 30.0, -30.0)  # away from the relation's direction
@@ -67,14 +71,17 @@ class Table:
         q = np.atleast_2d(p) - self.origin
         return np.stack([q @ self.e1, q @ self.e2], axis=1)
 
-    def problem(self, target: Footprint, shift: np.ndarray, hidden_ok: bool = False) -> str | None:
+    def problem(
+        self, target: Footprint, shift: np.ndarray, hidden_ok: bool = False, pushed: bool = False
+    ) -> str | None:
         """Why the target moved by `shift` (camera frame) would not stand there, or None. `hidden_ok`: in a
-        container, whose walls may hide it."""
+        container, whose walls may hide it. The gap is kept around the disc of the object's radius where a hand sets
+        it down (the fingers open about it there); `pushed`: around its own outline, seen from above (the hand stays
+        behind it; see also in_the_way)."""
         centre = target.centre + shift
-        if self.obstacles is not None:
-            d, _ = self.obstacles.query(self.to_2d(centre)[0])
-            if d < target.radius_m + self.config.gap_m:
-                return "too close to another object"
+        crowded = self._near_outline(target, shift) if pushed else self._near_disc(target, centre)
+        if crowded is not None:
+            return crowded
         ring = _disc(target, centre, self.plane)
         uv, inside = self._pixels(ring)
         if inside.mean() < 1.0 - MAX_OUT_OF_VIEW:
@@ -94,6 +101,39 @@ class Table:
         hidden = np.isfinite(seen) & (seen < moved[inside, 2] - HIDDEN_M)
         if hidden.mean() > MAX_HIDDEN and not hidden_ok:
             return "hidden from the camera behind another object"
+        return None
+
+    def _near_disc(self, target: Footprint, centre: np.ndarray) -> str | None:
+        if self.obstacles is None:
+            return None
+        if self.obstacles.query(self.to_2d(centre)[0])[0] < target.radius_m + self.config.gap_m:
+            return "too close to another object"
+        return None
+
+    def _near_outline(self, target: Footprint, shift: np.ndarray) -> str | None:
+        if self.obstacles is None:
+            return None
+        if self.obstacles.query(self.to_2d(target.points + shift))[0].min() < self.config.pushed_gap_m:
+            return "too close to another object"
+        return None
+
+    def in_the_way(self, target: Footprint, shift: np.ndarray) -> str | None:
+        """Why the target pushed by `shift` (camera frame) would push another object along, or None: one nearer than
+        PATH_CLEAR_M to its outline on the way (one it already touches at the start does not count: it stays
+        behind or beside)."""
+        if self.obstacles is None:
+            return None
+        outline = self.to_2d(target.points)
+        step = (self.to_2d(target.centre + shift) - self.to_2d(target.centre))[0]
+        middle = outline.mean(axis=0) + 0.5 * step
+        sweep = float(np.max(np.linalg.norm(outline - outline.mean(axis=0), axis=1)) + 0.5 * np.linalg.norm(step))
+        near = self.obstacles.data[self.obstacles.query_ball_point(middle, sweep + PATH_CLEAR_M)]
+        path = cKDTree(outline)
+        near = near[path.query(near)[0] >= PATH_CLEAR_M] if len(near) else near  # not already touching
+        n = max(2, int(np.ceil(np.linalg.norm(step) / PATH_STEP_M)) + 1)
+        for f in np.linspace(0.0, 1.0, n)[1:]:
+            if len(near) and path.query(near - f * step)[0].min() < PATH_CLEAR_M:
+                return f"another object stands in its way, {f * np.linalg.norm(step) * 100:.0f} cm along"
         return None
 
     def _pixels(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -16,12 +16,14 @@ from pipeline.reasoning.types import EditRequest
 BLOCK = {"kind": "box", "size_m": [0.045, 0.045, 0.045]}
 
 
-def capture(sim_profile_with, tmp_path, objects: list[dict]):
-    """One frame (with T_base_camera) of a scene of these objects, placed exactly."""
+def capture(sim_profile_with, tmp_path, objects: list[dict], yaw_jitter_deg: float | None = None):
+    """One frame (with T_base_camera) of a scene of these objects, placed exactly (turned by the scene's default
+    yaw jitter unless given)."""
     from drivers.sim import SimCamera, SimWorld
 
     path = tmp_path / "scene.yaml"
-    path.write_text(yaml.safe_dump({"name": "t", "objects": objects, "randomise": {"xy_jitter_m": 0.0}}))
+    randomise = {"xy_jitter_m": 0.0} | ({} if yaw_jitter_deg is None else {"yaw_jitter_deg": yaw_jitter_deg})
+    path.write_text(yaml.safe_dump({"name": "t", "objects": objects, "randomise": randomise}))
     profile = sim_profile_with({"sim": {"scene": str(path)}})
     world = SimWorld(profile.sim, profile.camera)
     with SimCamera(world, seed=0) as camera:
@@ -82,3 +84,41 @@ def test_check_instruction_shows_the_grammar():
         with pytest.raises(InstructionError) as e:
             check_instruction(sentence)
         assert GRAMMAR in str(e.value), sentence
+
+
+def _push(sim_profile_with, tmp_path, red: dict, blue_xy: tuple[float, float], prompt: str):
+    frame = capture(
+        sim_profile_with,
+        tmp_path,
+        [
+            {"name": "red", "color": "red", "xy_m": [0.42, 0.0], **red},
+            {"name": "blue", "color": "blue", "xy_m": list(blue_xy), **BLOCK},
+        ],
+        yaw_jitter_deg=0.0,
+    )
+    seg = OfflineSegmenter()
+    request = EditRequest(frame.rgb, prompt, frame.depth, frame.intrinsics, frame.T_base_camera)
+    return frame, seg, request
+
+
+def test_a_push_may_end_nearer_a_neighbour_than_its_radius_when_its_outline_stays_clear(sim_profile_with, tmp_path):
+    # a slab long across the push ends with its near face 15 mm from a block: its disc would cover the block
+    slab = {"kind": "box", "size_m": [0.10, 0.03, 0.04]}
+    frame, seg, request = _push(sim_profile_with, tmp_path, slab, (0.42, 0.0825), "push the red block right by 3 cm")
+    result = OfflineEditor(seg).edit(request)
+    mask = seg.segment(frame.rgb, "red block")[0].mask
+    seen = frame.intrinsics.unproject_depth_image(frame.depth)[mask & np.isfinite(frame.depth)].mean(axis=0)
+    start = frame.T_base_camera[:3, :3] @ seen + frame.T_base_camera[:3, 3]
+    np.testing.assert_allclose(goal_in_base(frame, result, mask) - start, [0.0, 0.03, 0.0], atol=0.002)
+    nearer = EditRequest(
+        frame.rgb, "push the red block right by 4 cm", frame.depth, frame.intrinsics, frame.T_base_camera
+    )
+    with pytest.raises(ProviderError, match="where it would end is too close to another object"):
+        OfflineEditor(seg).edit(nearer)  # 5 mm from the block
+
+
+def test_a_push_through_another_object_is_refused(sim_profile_with, tmp_path):
+    # the block stands across the path; past it, the end itself is clear
+    frame, seg, request = _push(sim_profile_with, tmp_path, BLOCK, (0.42, 0.07), "push the red block right by 15 cm")
+    with pytest.raises(ProviderError, match=r"another object stands in its way, \d cm along"):
+        OfflineEditor(seg).edit(request)
