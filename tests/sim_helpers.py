@@ -57,3 +57,14 @@ def body_pose(world: SimWorld, body: str) -> np.ndarray:
     T[:3, :3] = world.data.xmat[b].reshape(3, 3)
     T[:3, 3] = world.data.xpos[b]
     return T
+
+
+def put_object(world: SimWorld, name: str, xyz_m: tuple[float, float, float], settle_s: float = 0.5) -> None:
+    """Set a free object's centre down at xyz_m, upright as it stood, and let the physics settle it (an object
+    put on another, where displace() only slides objects on the table)."""
+    joint = world.model.joint(f"{name}_free")
+    adr, dof = joint.qposadr[0], joint.dofadr[0]
+    world.data.qpos[adr : adr + 3] = xyz_m
+    world.data.qvel[dof : dof + 6] = 0.0
+    mujoco.mj_forward(world.model, world.data)
+    world.step(settle_s)

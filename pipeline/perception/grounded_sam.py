@@ -32,7 +32,8 @@ class GroundedSamSegmenter(Segmenter):
         self.detector.eval()
         self.sam.eval()
 
-    def segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
+    def segment(self, rgb: np.ndarray, phrase: str, depth_m: np.ndarray | None = None) -> list[Detection]:
+        """depth_m is not used: the detector's boxes and SAM's masks come from the image alone."""
         from PIL import Image
 
         check_rgb(rgb, "grounded_sam")

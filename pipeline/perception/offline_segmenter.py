@@ -17,8 +17,9 @@ is the scale, not every box-like thing.
 A plural shape word ("the yellow screws") names every instance, and with a colour word also the irregular
 regions of that colour a few small parts make when they touch (a pile). A part word ("the lid of the blue box")
 names the lid of the named object: a region of another colour attached to it from above and resting on it along
-its width (open or shut), else, for a lidded box with a lid of its own colour, the topmost face of the box's region
-(faces are the pieces between the edges inside it). With no chest seen open, of several regions
+its width (open or shut; with a depth image, at the box's depth where they meet: a thing standing behind the box
+meets it in the image only, farther off), else, for a lidded box with a lid of its own colour, the topmost face of
+the box's region (faces are the pieces between the edges inside it). With no chest seen open, of several regions
 with a lid the largest is the chest (shut, it looks like a box, and outsizes a block of a paler shade beside it).
 Limits, by design of a no-model backend: brown is not separable from the wooden table, regions touching the
 image border are ignored (the floor, the robot base), touching objects of one colour and one saturation are one
@@ -81,6 +82,8 @@ CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 BLEND_SATURATION = 0.8  # a lid's pixel along its box this much less saturated than the lid is a blend of the two
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
 LID_RESTS_ON = 0.8  # ... and rests on it along at least this share of its width (it may overhang a little)
+MEET_M = 0.03  # ... and, where depth is known, is this near the box in depth where they meet (a lid on its hinge: a
+# few mm; a bottle or a bowl behind the box: 15 cm and more)
 FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
 RANK_MARGIN = 0.15  # with no region of the shape's kinds: those fitting it within this of the best
 SHAPE_ONLY_FIT = 0.5  # ... and with no colour word, fitting it at least this well
@@ -162,7 +165,7 @@ class OfflineSegmenter(Segmenter):
         self.min_area_frac = min_area_frac
         self.min_shape_score = min_shape_score
 
-    def segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
+    def segment(self, rgb: np.ndarray, phrase: str, depth_m: np.ndarray | None = None) -> list[Detection]:
         check_rgb(rgb, "offline segmenter")
         want = parse_phrase(phrase)
         instances = self.instances(rgb)
@@ -171,7 +174,7 @@ class OfflineSegmenter(Segmenter):
             id(lid)
             for i in instances
             if i.kind == "lidded_box"
-            for lid in [_attached_lid(i, instances, any_shape=True)]
+            for lid in [_attached_lid(i, instances, depth_m, any_shape=True)]
             if lid
         }
         candidates = [i for i in instances if id(i) not in lids]
@@ -188,7 +191,9 @@ class OfflineSegmenter(Segmenter):
         seen_open = any(i.kind == "lidded_box" for i in objects)
         if seen_open:  # a lid is a chest's part: a box seen open has one,
             objects = [i for i in objects if i.kind == "lidded_box"]  # a plain-looking box only when none is open
-        found = [(whole, lid) for whole in objects for lid in [_lid(rgb, whole, instances, want)] if lid is not None]
+        found = [
+            (whole, lid) for whole in objects for lid in [_lid(rgb, whole, instances, want, depth_m)] if lid is not None
+        ]
         if not seen_open and len(found) > 1:  # shut chests look like boxes: of several with a lid, the chest
             largest = max(whole.region.area for whole, _ in found)  # outsizes blocks of its colour
             found = [(whole, lid) for whole, lid in found if whole.region.area >= CHEST_AREA_RATIO * largest]
@@ -277,11 +282,13 @@ def _detection(instance: Instance, want: ObjectPhrase, mask: np.ndarray) -> Dete
     return Detection(mask, _score(instance, want), box_of(mask), _label(instance))
 
 
-def _lid(rgb: np.ndarray, whole: Instance, instances: list[Instance], want: ObjectPhrase) -> np.ndarray | None:
+def _lid(
+    rgb: np.ndarray, whole: Instance, instances: list[Instance], want: ObjectPhrase, depth_m: np.ndarray | None
+) -> np.ndarray | None:
     """The lid of an object: a region of another colour attached to it from above, or else, for a lidded box
     (or a shut one, which looks like a plain box, when the phrase may name a lidded box), the topmost face of its
     own region (a lid of the box's own colour)."""
-    lid = _attached_lid(whole, instances, any_shape=True)
+    lid = _attached_lid(whole, instances, depth_m, any_shape=True)
     if lid is not None:  # less the pixels along the box where the two colours blend (washed out)
         mask = lid.region.mask & ~whole.region.mask
         along = mask & cv2.dilate(whole.region.mask.astype(np.uint8), CROSS).astype(bool)
@@ -305,10 +312,12 @@ def _inside(mask: np.ndarray, own: np.ndarray) -> bool:
     return bool(covered.mean() >= ENCLOSED_TOP)
 
 
-def _attached_lid(whole: Instance, instances: list[Instance], any_shape: bool = False) -> Instance | None:
+def _attached_lid(
+    whole: Instance, instances: list[Instance], depth_m: np.ndarray | None = None, any_shape: bool = False
+) -> Instance | None:
     """The largest region touching `whole` from above: over its width, reaching above its middle, covering
-    LID_MIN_FRACTION of it, flat unless `any_shape` (a lid seen edge-on looks like anything but a ball), and not
-    inside it (what lies in an open box is no lid)."""
+    LID_MIN_FRACTION of it, flat unless `any_shape` (a lid seen edge-on looks like anything but a ball), not
+    inside it (what lies in an open box is no lid), and meeting it in depth where depth is known (_meets)."""
     own = whole.region.mask
     near = cv2.dilate(own.astype(np.uint8), np.ones((2 * ATTACHED_PX + 1,) * 2, np.uint8)).astype(bool)
     u0, v0, u1, v1 = box_of(own)
@@ -325,9 +334,23 @@ def _attached_lid(whole: Instance, instances: list[Instance], any_shape: bool = 
             and bool((i.region.mask & near).any())
             and _resting_share(i.region.mask, near) >= LID_RESTS_ON
             and not _inside(i.region.mask, own)
+            and _meets(i.region.mask, own, depth_m)
         )
 
     return max((i for i in instances if i is not whole and lid_like(i)), key=lambda i: i.region.area, default=None)
+
+
+def _meets(mask: np.ndarray, own: np.ndarray, depth_m: np.ndarray | None) -> bool:
+    """Whether two regions touching in the image touch in the scene: the median depths along their shared border,
+    on either side, within MEET_M. True without depth, or with none known along the border (no evidence)."""
+    if depth_m is None:
+        return True
+    border = np.ones((2 * ATTACHED_PX + 1,) * 2, np.uint8)
+    near_own = mask & cv2.dilate(own.astype(np.uint8), border).astype(bool)
+    near_mask = own & cv2.dilate(mask.astype(np.uint8), border).astype(bool)
+    a, b = depth_m[near_own], depth_m[near_mask]
+    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+    return not (len(a) and len(b)) or abs(float(np.median(a)) - float(np.median(b))) <= MEET_M
 
 
 def _resting_share(mask: np.ndarray, near: np.ndarray) -> float:

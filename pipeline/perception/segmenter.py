@@ -69,5 +69,7 @@ class Segmenter(ABC):
     name: str = "segmenter"
 
     @abstractmethod
-    def segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
-        """All instances of `phrase`, best first; an empty list when there is none."""
+    def segment(self, rgb: np.ndarray, phrase: str, depth_m: np.ndarray | None = None) -> list[Detection]:
+        """All instances of `phrase`, best first; an empty list when there is none. `depth_m` (metres, aligned with
+        `rgb`, NaN unknown), where the image has one, tells touching from overlapping in the image: a lid hinged
+        on its box from a thing standing behind the box."""

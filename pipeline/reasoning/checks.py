@@ -99,6 +99,7 @@ UNCHANGED_LEVELS = 12.0  # a pixel within this many levels of the first image (b
 UNCHANGED_SHARE = 0.8  # ... and a region this much of whose pixels off the target's first place did not, was there
 OLD_MIN_SHARE = 0.2  # a region this much of which looks as before off the target's first place holds another object
 NEW_MIN_SHARE = 0.1  # a region's new part, at least this share of it, is the target (the rest was there before)
+NEUTRAL_SATURATION = 40  # of 255: a target less saturated than this is white, gray or black
 
 
 def colour_change(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:
@@ -113,6 +114,21 @@ def unchanged_pixels(rgb_init: np.ndarray, rgb: np.ndarray) -> np.ndarray:
     times the image's median change, whichever is more: an editor redraws the whole image with a little drift)."""
     change = colour_change(rgb_init, rgb)
     return change <= max(UNCHANGED_LEVELS, 3.0 * float(np.median(change)))
+
+
+def changed_only(rgb_init: np.ndarray, rgb: np.ndarray, mask_init: np.ndarray) -> np.ndarray:
+    """`rgb` with every pixel that still looks as in `rgb_init` painted one saturated colour, opposite the target's
+    hue (green for a neutral target): what the edit changed stands alone. An object put on one it merges with (a
+    white can on a scale's white plate, a cube on a bowl read with it as a chest and its lid) is one region with
+    it, named by the other; painted over, the other is gone and the moved object is a region of its own."""
+    hsv_init = cv2.cvtColor(rgb_init, cv2.COLOR_RGB2HSV_FULL)[mask_init].astype(np.float64)
+    paint = np.array([[[85, 255, 255]]], np.uint8)  # green (hue out of 256)
+    if len(hsv_init) and np.median(hsv_init[:, 1]) >= NEUTRAL_SATURATION:
+        hue = np.angle(np.exp(2j * np.pi * hsv_init[:, 0] / 256).mean()) / (2 * np.pi) * 256
+        paint[..., 0] = round(float(hue) + 128) % 256
+    out = rgb.copy()
+    out[unchanged_pixels(rgb_init, rgb)] = cv2.cvtColor(paint, cv2.COLOR_HSV2RGB_FULL)[0, 0]
+    return out
 
 
 def like_the_target(detections: list[Detection], rgb_init: np.ndarray, mask_init: np.ndarray, rgb: np.ndarray):

@@ -64,10 +64,12 @@ def _refuse(message: str) -> ProviderError:
     return ProviderError("refused", f"offline editor: {message}", raw=message)
 
 
-def _single(segmenter: Segmenter, rgb: np.ndarray, phrase: str, other_than: np.ndarray | None = None) -> np.ndarray:
+def _single(
+    segmenter: Segmenter, rgb: np.ndarray, depth_m: np.ndarray, phrase: str, other_than: np.ndarray | None = None
+) -> np.ndarray:
     """The one object the phrase names (not the object of `other_than`: a reference is not its target)."""
     try:
-        found = segmenter.segment(rgb, phrase)
+        found = segmenter.segment(rgb, phrase, depth_m)
     except SegmentationError as e:
         raise _refuse(str(e)) from None
     if other_than is not None:
@@ -114,14 +116,14 @@ class OfflineEditor(ImageEditor):
             return self._close(rgb, depth_m, K, instr.target)
         if instr.action == "sweep":
             return self._sweep(request, instr)
-        mask_x = _single(self.segmenter, rgb, instr.target)
+        mask_x = _single(self.segmenter, rgb, depth_m, instr.target)
         cloud = K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3)
         plane = fit_table_plane(cloud)
         px, _ = object_points(depth_m, K, mask_x)
         fx = footprint(px, plane)
         fy, exclude = None, grow(mask_x, 3)
         if instr.reference is not None:
-            mask_y = _single(self.segmenter, rgb, instr.reference, other_than=mask_x)
+            mask_y = _single(self.segmenter, rgb, depth_m, instr.reference, other_than=mask_x)
             py, _ = object_points(depth_m, K, mask_y)
             fy = footprint(py, plane)
             if instr.relation in ("on", "in"):  # the reference is where it goes, not in its way
@@ -149,8 +151,8 @@ class OfflineEditor(ImageEditor):
         self, rgb: np.ndarray, depth_m: np.ndarray, K: CameraIntrinsics, phrase: str
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The lid turned about its hinge until it lies over the box, pointing from the hinge to the box's centre."""
-        mask_lid = _single(self.segmenter, rgb, lid_of(phrase))
-        mask_box = _single(self.segmenter, rgb, phrase) & ~mask_lid
+        mask_lid = _single(self.segmenter, rgb, depth_m, lid_of(phrase))
+        mask_box = _single(self.segmenter, rgb, depth_m, phrase) & ~mask_lid
         cloud = K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3)
         plane = fit_table_plane(cloud)
         lid, _ = object_points(depth_m, K, mask_lid)
@@ -175,12 +177,12 @@ class OfflineEditor(ImageEditor):
         together about the floor's centre as far as it needs to fit; T is the group centroid's motion."""
         rgb, depth_m, K = request.rgb, request.depth_m, request.intrinsics
         try:
-            found = self.segmenter.segment(rgb, instr.target)
+            found = self.segmenter.segment(rgb, instr.target, depth_m)
         except SegmentationError as e:
             raise _refuse(str(e)) from None
         if not found:
             raise _refuse(f"'{instr.target}' matches no object in the current image")
-        mask_y = _single(self.segmenter, rgb, instr.reference)
+        mask_y = _single(self.segmenter, rgb, depth_m, instr.reference)
         plane = fit_table_plane(K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3))
         floor = container_floor(object_points(depth_m, K, mask_y)[0], plane)
         parts = [object_points(depth_m, K, d.mask)[0] for d in found]
@@ -226,7 +228,7 @@ class OfflineEditor(ImageEditor):
                     )
                 # the middles of the tops (a container's by its rim): the seen points' middle leans to the camera
                 there = rim_centre(fy, plane) if instr.relation == "in" else top_centre(fy, plane)
-                lift = support_height(fy, plane, there) - bottom + RELEASE_ABOVE_M
+                lift = support_height(fy, plane, there, container=instr.relation == "in") - bottom + RELEASE_ABOVE_M
                 shift = there - top_centre(fx, plane) + lift * plane.n
                 problem = table.problem(fx, shift, hidden_ok=instr.relation == "in")  # walls may hide it
                 if problem is not None:

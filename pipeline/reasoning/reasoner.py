@@ -101,7 +101,7 @@ class Reasoner:
         rec.text("enhancement_raw.txt", enh.raw)
 
         t0 = time.perf_counter()
-        initial = self._segment(rgb, enh.target)
+        initial = self._segment(rgb, enh.target, frame.depth)
         seconds["segment"] = time.perf_counter() - t0
         if enh.group:
             mask_init = group.initial_union(initial, enh.target)
@@ -113,15 +113,15 @@ class Reasoner:
         rec.image("mask_init.png", mask_init)
         mask_tool = mask_reference = None
         if enh.tool or enh.group:  # a sweep: the tool it is done with and the container it goes into
-            mask_tool = self._single(rgb, enh.tool, "tool") & ~mask_init if enh.tool else None
-            mask_reference = self._single(rgb, enh.reference, "reference") & ~mask_init if enh.reference else None
+            mask_tool = self._single(frame, enh.tool, "tool") & ~mask_init if enh.tool else None
+            mask_reference = self._single(frame, enh.reference, "reference") & ~mask_init if enh.reference else None
             for name, mask in (("mask_tool.png", mask_tool), ("mask_reference.png", mask_reference)):
                 if mask is not None:
                     rec.image(name, mask)
         enh = replace(enh, target=with_colour_found(enh.target, initial[0].label))  # to find it again, moved
         mask_anchor = None
         if enh.anchor:
-            anchors = self._segment(rgb, enh.anchor)
+            anchors = self._segment(rgb, enh.anchor, frame.depth)
             if len(anchors) != 1:
                 reason = f"anchor '{enh.anchor}' {matches(anchors)} in the initial image (needs exactly one)"
                 raise ReasoningError(reason, [reason])
@@ -204,17 +204,30 @@ class Reasoner:
         )
         return goal
 
-    def _single(self, rgb: np.ndarray, phrase: str, role: str) -> np.ndarray:
+    def _single(self, frame: RGBDFrame, phrase: str, role: str) -> np.ndarray:
         """The one instance `phrase` names in the initial image (a sweep's tool or container), else ReasoningError."""
-        found = self._segment(rgb, phrase)
+        found = self._segment(frame.rgb, phrase, frame.depth)
         if len(found) != 1:
             reason = f"{role} '{phrase}' {matches(found)} in the initial image (needs exactly one)"
             raise ReasoningError(reason, [reason])
         return found[0].mask
 
-    def _segment(self, rgb: np.ndarray, phrase: str) -> list[Detection]:
+    def _find_target(self, rgb, cand, enh, mask_init: np.ndarray, it: Iteration) -> list[Detection]:
+        """The target phrase's regions in the candidate; when there is none, those among what the edit changed
+        (checks.changed_only: the target merged with what it was put on)."""
+        found = self._segment(cand, enh.target)
+        if found or enh.group:
+            return found
+        found = self._segment(checks.changed_only(rgb, cand, mask_init), enh.target)
+        if found:
+            it.checks.append(
+                f"target '{enh.target}' found only among the pixels the edit changed (it merges with what it is on)"
+            )
+        return found
+
+    def _segment(self, rgb: np.ndarray, phrase: str, depth_m: np.ndarray | None = None) -> list[Detection]:
         try:
-            return self.segmenter.segment(rgb, phrase)
+            return self.segmenter.segment(rgb, phrase, depth_m)
         except SegmentationError as e:
             raise ReasoningError(f"segmentation of '{phrase}' failed: {e}", [str(e)]) from e
 
@@ -244,7 +257,7 @@ class Reasoner:
 
         t0 = time.perf_counter()
         cand, problems = checks.resize_to(result.rgb, rgb.shape[:2])
-        found = self._segment(cand, enh.target)
+        found = self._find_target(rgb, cand, enh, mask_init, it)
         lap("segment", t0)
         t0 = time.perf_counter()
         others = np.any([d.mask for d in found], axis=0) if found else np.zeros_like(mask_init)
@@ -259,7 +272,7 @@ class Reasoner:
                 cand, uncovered = checks.reregister(rgb, cand, framing)
                 it.registered = True
                 it.checks.append(f"{note}; re-registered ({100 * uncovered:.1f} % of the view uncovered)")
-                found = self._segment(cand, enh.target)
+                found = self._find_target(rgb, cand, enh, mask_init, it)
         if enh.group:
             problems += group.count_problems(found, group_size, enh.target)
             mask_goal = np.any([d.mask for d in found], axis=0) if found and not problems else None

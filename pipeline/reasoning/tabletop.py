@@ -103,13 +103,16 @@ def footprint(points: np.ndarray, plane: Plane) -> Footprint:
     return Footprint(centre, r, plane.height(points), points)
 
 
-def support_height(fp: Footprint, plane: Plane, centre: np.ndarray | None = None) -> float:
+def support_height(fp: Footprint, plane: Plane, centre: np.ndarray | None = None, container: bool = False) -> float:
     """Height of the surface an object placed at `centre` (default: the footprint's) would rest on (top of a
-    plate, floor of a pan)."""
+    plate, floor of a pan): the points seen around it. None seen there: the object's top, or a container's base
+    (its lowest points): walls taller than the view into it hide its floor, which lies at its foot, not its rim."""
     q = plane.project(fp.points)
     at = fp.centre if centre is None else centre
     near = np.linalg.norm(q - at, axis=1) < 0.5 * max(fp.radius_m, 0.01)
-    return float(np.median(fp.heights[near])) if near.any() else float(fp.heights.max())
+    if near.any():
+        return float(np.median(fp.heights[near]))
+    return float(np.percentile(fp.heights, 2) if container else fp.heights.max())
 
 
 TOP_BAND_M = 0.01  # an object's top: its points this close below its highest

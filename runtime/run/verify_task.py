@@ -40,7 +40,7 @@ def verify_group(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Ver
     before, goal = ctx.frame0, ctx.goal
     if goal.mask_reference is None:
         return Verification(ok=False, reason=f"no container was segmented for '{goal.target}': nothing to count in")
-    parts = [d.mask for d in segmenter.segment(after.rgb, goal.target)]
+    parts = [d.mask for d in segmenter.segment(after.rgb, goal.target, after.depth)]
     if parts:
         ctx.record.image("mask_after", _union(parts))
     count = count_in_container(
@@ -84,7 +84,7 @@ def _target_clouds(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> t
     """The target's points in the base frame before (the planning capture) and after execution, its after-mask
     recorded; _NotMeasured unless it is found exactly once with enough depth in both."""
     goal = ctx.goal
-    found = segmenter.segment(after.rgb, goal.target)
+    found = segmenter.segment(after.rgb, goal.target, after.depth)
     if len(found) != 1:
         raise _NotMeasured(f"target '{goal.target}' found {len(found)} times after execution")
     ctx.record.image("mask_after", found[0].mask)

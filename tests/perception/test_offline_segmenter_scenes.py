@@ -57,10 +57,11 @@ def test_a_lid_is_found_open_and_shut_whatever_its_colour(sim_profile_with, tmp_
         for shut in (False, True):
             if shut:
                 set_hinge(world, "box_hinge", math.radians(0.5))
-            rgb = camera.read().rgb
-            lids = seg.segment(rgb, "the lid of the blue box")
-            assert len(lids) == 1, (shut, [d.label for d in lids])
-            assert iou(lids[0].mask, camera.body_mask("box_lid")) > 0.6, f"shut={shut}"
+            frame = camera.read()
+            for depth in (None, frame.depth):  # the lid meets its box in depth too
+                lids = seg.segment(frame.rgb, "the lid of the blue box", depth)
+                assert len(lids) == 1, (shut, [d.label for d in lids])
+                assert iou(lids[0].mask, camera.body_mask("box_lid")) > 0.6, f"shut={shut}"
 
 
 def test_the_lid_of_a_box_is_the_open_chests_beside_a_plain_box_of_its_colour(sim_profile_with, tmp_path):
@@ -273,3 +274,35 @@ def test_a_block_half_hidden_behind_a_chest_of_its_colour_is_the_block_not_the_c
         rgb, truth = camera.read().rgb, camera.object_masks()
     (found,) = OfflineSegmenter().segment(rgb, "the pink block")
     assert iou(found.mask, truth["block"]) > 0.7
+
+
+@pytest.mark.parametrize(
+    "behind",
+    [
+        {"kind": "bottle", "color": "blue", "radius_m": 0.033, "height_m": 0.167, "xy_m": [0.349, -0.26]},
+        {"kind": "bowl", "color": "light_cyan", "radius_m": 0.065, "height_m": 0.053, "xy_m": [0.36, -0.22]},
+    ],
+)
+def test_a_thing_standing_behind_an_open_chest_is_no_lid_where_depth_shows_it_farther(
+    sim_profile_with, tmp_path, behind
+):
+    """In the image a bottle or a bowl behind the chest rests on its top along its width, as a lid of another colour
+    would; the depth where the two regions meet shows it 15 cm and more behind the chest, where a lid on its hinge
+    meets its box within millimetres. With the depth, the lid is the chest's own and the thing is found as itself."""
+    chest = {"name": "chest", "kind": "lidded_box", "size_m": [0.108, 0.132, 0.072], "color": "gray"}
+    chest |= {"xy_m": [0.57, -0.16], "yaw_deg": 19.6, "lid_open_deg": 100.8, "lid_color": "gray"}
+    path = tmp_path / "behind.yaml"
+    scene = {"name": "behind", "objects": [chest, {"name": "thing", **behind}]}
+    path.write_text(yaml.safe_dump(scene | {"randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}))
+    _, camera = view(sim_profile_with, str(path))
+    with camera:
+        frame, truth = camera.read(), camera.object_masks()
+        lid_truth = camera.body_mask("chest_lid")
+    seg = OfflineSegmenter()
+    thing = f"the {behind['color'].split('_')[-1]} {behind['kind']}"
+    blind = seg.segment(frame.rgb, "the lid of the gray box")  # the image alone takes the thing for the lid
+    assert len(blind) == 1 and iou(blind[0].mask, truth["thing"]) > 0.5
+    (lid,) = seg.segment(frame.rgb, "the lid of the gray box", frame.depth)
+    assert iou(lid.mask, lid_truth) > 0.4 and (lid.mask & truth["thing"]).sum() == 0
+    (found,) = seg.segment(frame.rgb, thing, frame.depth)
+    assert iou(found.mask, truth["thing"]) > 0.8

@@ -52,3 +52,35 @@ def test_closing_a_lid_composes_the_true_hinge_turn_and_grounding_recovers_it(li
     assert motion.ok, motion.reason
     grounded_m, grounded_deg = error(motion.R, motion.t, T_goal)
     assert grounded_m < 0.01 and grounded_deg < 5.0, f"{grounded_m * 1000:.1f} mm, {grounded_deg:.1f} deg"
+
+
+def test_a_white_can_put_on_a_scales_white_plate_is_found_in_the_goal_among_what_the_edit_changed(
+    sim_profile_with, tmp_path
+):
+    """In the goal image the can and the plate are one white region, which the scale's base names: the target is
+    found among the pixels the edit changed, the goal is validated and grounding recovers the composed motion."""
+    import yaml
+
+    from drivers.sim import SimCamera, SimWorld
+
+    objects = [
+        {"name": "can", "kind": "cylinder", "color": "white", "radius_m": 0.031, "height_m": 0.059},
+        {"name": "scale", "kind": "platform", "color": "light_red", "size_m": [0.101, 0.112, 0.031]},
+    ]
+    objects[0] |= {"xy_m": [0.42, -0.30]}
+    objects[1] |= {"xy_m": [0.41, -0.01], "yaw_deg": -142.0}
+    path = tmp_path / "scale.yaml"
+    path.write_text(yaml.safe_dump({"name": "s", "objects": objects, "randomise": {"xy_jitter_m": 0.0}}))
+    profile = sim_profile_with({"sim": {"scene": str(path)}})
+    with SimCamera(SimWorld(profile.sim, profile.camera), seed=0) as camera:
+        frame = camera.read().with_extrinsics(camera.T_base_camera)
+    goal = build_reasoner(PipelineConfig()).run(frame, "put the white can on the light red scale")
+    assert goal.validated
+    accepted = goal.iterations[-1]
+    assert any("found only among the pixels the edit changed" in c for c in accepted.checks), accepted.checks
+    motion = ground(GroundingInput.from_goal(frame, goal), make_feature_extractor("offline"))
+    assert motion.ok, motion.reason
+    T = goal.T_goal_init_camera
+    points = frame.intrinsics.unproject_depth_image(frame.depth)[goal.mask_init]
+    centroid = points[np.isfinite(points).all(axis=1)].mean(axis=0)
+    assert np.linalg.norm((motion.R @ centroid + motion.t) - (T[:3, :3] @ centroid + T[:3, 3])) < 0.015

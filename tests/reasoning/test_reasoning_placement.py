@@ -119,6 +119,28 @@ def test_a_push_may_end_nearer_a_neighbour_than_its_radius_when_its_outline_stay
 
 def test_a_push_through_another_object_is_refused(sim_profile_with, tmp_path):
     # the block stands across the path; past it, the end itself is clear
-    frame, seg, request = _push(sim_profile_with, tmp_path, BLOCK, (0.42, 0.07), "push the red block right by 15 cm")
+    _frame, seg, request = _push(sim_profile_with, tmp_path, BLOCK, (0.42, 0.07), "push the red block right by 15 cm")
     with pytest.raises(ProviderError, match=r"another object stands in its way, \d cm along"):
         OfflineEditor(seg).edit(request)
+
+
+def test_an_object_put_in_a_bowl_whose_walls_hide_its_floor_goes_down_to_the_floor_not_onto_the_rim(
+    sim_profile_with, tmp_path
+):
+    # seen from the camera, no point of its floor shows over the front wall
+    bowl = {"name": "bowl", "kind": "bowl", "color": "dark_pink", "radius_m": 0.068, "height_m": 0.089}
+    frame = capture(
+        sim_profile_with,
+        tmp_path,
+        [{"name": "cube", "color": "green", "xy_m": [0.38, -0.29], **BLOCK}, bowl | {"xy_m": [0.25, 0.18]}],
+    )
+    seg = OfflineSegmenter()
+    request = EditRequest(
+        frame.rgb, "put the green cube in the bowl", frame.depth, frame.intrinsics, frame.T_base_camera
+    )
+    result = OfflineEditor(seg).edit(request)
+    mask = seg.segment(frame.rgb, "green cube")[0].mask
+    pts = frame.intrinsics.unproject_depth_image(frame.depth)[mask & np.isfinite(frame.depth)]
+    T = frame.T_base_camera @ result.T_goal_init_camera
+    lowest = float(np.min(pts @ T[:3, :3].T + T[:3, 3], axis=0)[2])
+    assert 0.0 < lowest < 0.03  # on the bowl's floor (8 mm up), released a little above it; the rim is at 89 mm
