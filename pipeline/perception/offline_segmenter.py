@@ -188,9 +188,9 @@ class OfflineSegmenter(Segmenter):
             objects = [i for i in boxes if i.region.area >= CHEST_AREA_RATIO * largest]  # a chest outsizes blocks
         if want.part is None:
             return [_detection(i, want, i.region.mask) for i in objects]
-        seen_open = any(i.kind == "lidded_box" for i in objects)
+        seen_open = any(_reads_open(i) for i in objects)
         if seen_open:  # a lid is a chest's part: a box seen open has one,
-            objects = [i for i in objects if i.kind == "lidded_box"]  # a plain-looking box only when none is open
+            objects = [i for i in objects if _reads_open(i)]  # a plain-looking box only when none is open
         found = [
             (whole, lid) for whole in objects for lid in [_lid(rgb, whole, instances, want, depth_m)] if lid is not None
         ]
@@ -295,9 +295,15 @@ def _lid(
         _, sat, _ = hsv(rgb)
         return mask & ~(along & (sat < BLEND_SATURATION * np.median(sat[mask])))
     may_be_lidded = want.kinds is None or "lidded_box" in want.kinds
-    if whole.kind == "lidded_box" or (whole.kind == "box" and may_be_lidded):
+    if _reads_open(whole) or (whole.kind == "box" and may_be_lidded):
         return _top_face(rgb, whole.region.mask)
     return None
+
+
+def _reads_open(instance: Instance) -> bool:
+    """An open chest: classified so, or fitting one confidently while another kind fits a little better (an open
+    chest turned so its lid stands over its side reads as a dustpan as well: a scoop with a raised back)."""
+    return instance.kind == "lidded_box" or instance.scores.get("lidded_box", 0.0) >= CONFIDENT_KIND
 
 
 def _inside(mask: np.ndarray, own: np.ndarray) -> bool:

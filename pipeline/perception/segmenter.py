@@ -9,6 +9,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 
@@ -47,6 +48,22 @@ def apart_from(found: list[Detection], mask: np.ndarray) -> list[Detection]:
     """The detections that are not mostly the object of `mask` (a reference is not the target it relates to: "put
     the red can on the cube", the can seen as a box is no cube)."""
     return [d for d in found if (d.mask & mask).sum() < 0.5 * d.area_px]
+
+
+PART_BORDER_PX = 3  # a part and its object's region meet within this many pixels
+
+
+def attached_to(found: list[Detection], mask_part: np.ndarray) -> list[Detection]:
+    """Of several regions an object's phrase matches ("the chest" of "close the chest"), the one a part of it is
+    attached to: sharing the most of the part's border, or holding the part itself (a lid of the chest's colour is
+    in its region). A chest-like region behind the chest (a bowl half hidden) is not the part's object."""
+    if len(found) < 2:
+        return found
+    kernel = np.ones((2 * PART_BORDER_PX + 1,) * 2, np.uint8)
+    near = cv2.dilate(mask_part.astype(np.uint8), kernel).astype(bool)
+    contact = [int((d.mask & near).sum()) for d in found]
+    best = max(contact)
+    return [d for d, c in zip(found, contact, strict=True) if c == best] if best > 0 else found
 
 
 def box_of(mask: np.ndarray) -> tuple[int, int, int, int]:

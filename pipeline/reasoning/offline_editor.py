@@ -28,7 +28,7 @@ from scipy.spatial import ConvexHull
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.articulation import HingeNotFound, find_hinge
 from pipeline.perception.depth import OfflineDepthEstimator, RelativeDepth
-from pipeline.perception.segmenter import SegmentationError, Segmenter, apart_from, matches
+from pipeline.perception.segmenter import SegmentationError, Segmenter, apart_from, attached_to, matches
 from pipeline.reasoning.checks import grow
 from pipeline.reasoning.instruction import Instruction, InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import ImageEditor
@@ -65,15 +65,23 @@ def _refuse(message: str) -> ProviderError:
 
 
 def _single(
-    segmenter: Segmenter, rgb: np.ndarray, depth_m: np.ndarray, phrase: str, other_than: np.ndarray | None = None
+    segmenter: Segmenter,
+    rgb: np.ndarray,
+    depth_m: np.ndarray,
+    phrase: str,
+    other_than: np.ndarray | None = None,
+    part: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The one object the phrase names (not the object of `other_than`: a reference is not its target)."""
+    """The one object the phrase names (not the object of `other_than`: a reference is not its target; of several,
+    the one `part` is attached to: a lid's chest)."""
     try:
         found = segmenter.segment(rgb, phrase, depth_m)
     except SegmentationError as e:
         raise _refuse(str(e)) from None
     if other_than is not None:
         found = apart_from(found, other_than)
+    if part is not None:
+        found = attached_to(found, part)
     if len(found) != 1:
         raise _refuse(f"'{phrase}' {matches(found)} in the current image (needs exactly one)")
     return found[0].mask
@@ -152,7 +160,7 @@ class OfflineEditor(ImageEditor):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The lid turned about its hinge until it lies over the box, pointing from the hinge to the box's centre."""
         mask_lid = _single(self.segmenter, rgb, depth_m, lid_of(phrase))
-        mask_box = _single(self.segmenter, rgb, depth_m, phrase) & ~mask_lid
+        mask_box = _single(self.segmenter, rgb, depth_m, phrase, part=mask_lid) & ~mask_lid
         cloud = K.unproject_depth_image(depth_m)[::3, ::3].reshape(-1, 3)
         plane = fit_table_plane(cloud)
         lid, _ = object_points(depth_m, K, mask_lid)

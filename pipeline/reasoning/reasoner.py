@@ -19,7 +19,7 @@ import numpy as np
 from drivers.types import RGBDFrame
 from pipeline.config import PipelineConfig
 from pipeline.perception.depth import DepthEstimationError, DepthEstimator
-from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, matches
+from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, attached_to, matches
 from pipeline.reasoning import checks, group
 from pipeline.reasoning.instruction import with_colour_found
 from pipeline.reasoning.interfaces import ImageEditor, TextVLM
@@ -121,7 +121,7 @@ class Reasoner:
         enh = replace(enh, target=with_colour_found(enh.target, initial[0].label))  # to find it again, moved
         mask_anchor = None
         if enh.anchor:
-            anchors = self._segment(rgb, enh.anchor, frame.depth)
+            anchors = attached_to(self._segment(rgb, enh.anchor, frame.depth), mask_init)
             if len(anchors) != 1:
                 reason = f"anchor '{enh.anchor}' {matches(anchors)} in the initial image (needs exactly one)"
                 raise ReasoningError(reason, [reason])
