@@ -12,8 +12,9 @@ those surely of another kind: the colour decides and the shape only ranks). A sh
 among several of the colour, the darker or paler ones; white stands for gray and gray for white when nothing is
 named so (a white lid in the shade, a gray one in the light). A lid of another colour is a part of its box, not an
 object of its own. A shape word alone keeps the regions of its kinds (when there is none, those fitting it well,
-the best within a margin; a moved object seen from another side can read as a neighbouring kind), so "the scale"
-is the scale, not every box-like thing.
+the best within a margin; a moved object seen from another side can read as a neighbouring kind; when none fits,
+those of a kind it looks like with a part unseen: a pan whose handle reads apart is a shallow bowl), so "the
+scale" is the scale, not every box-like thing.
 A plural shape word ("the yellow screws") names every instance, and with a colour word also the irregular
 regions of that colour a few small parts make when they touch (a pile). A part word ("the lid of the blue box")
 names the lid of the named object: a region of another colour attached to it from above and resting on it along
@@ -92,6 +93,8 @@ PILE_AREA_FRAC = 5e-3  # a pile of small parts (screws) is at most this share of
 PILE_FILL, PILE_ELLIPSE = 0.75, 0.7  # ... and fills less of its rectangle, or of its ellipse, than any solid does
 FRAGMENT_AREA_FRAC = 2 * SPECK_AREA_FRAC  # a region this small of the colour is a part, partly seen
 CONFIDENT_KIND = 0.8  # a region scoring this for some kind is an object of that kind, not a pile
+# kinds one is read as where part of it does not show: a pan whose handle is washed out or hidden is a shallow bowl
+LOOK_ALIKE: dict[str, frozenset[str]] = {"pan": frozenset({"bowl"}), "bowl": frozenset({"pan"})}
 SIZE_KINDS = frozenset({"screw"})  # kinds told by size alone (shape_cues: a speck)
 
 
@@ -225,8 +228,10 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
         best = max(fit.values(), default=0.0)
         if exact:
             found = exact
-        elif want.colour is None:  # the shape alone decides: a region that fits it well, if none is of its kind
-            found = [i for i in found if fit[id(i)] >= max(SHAPE_ONLY_FIT, best - RANK_MARGIN)]
+        elif want.colour is None:  # the shape alone decides: a region that fits it well, if none is of its kind,
+            fits = [i for i in found if fit[id(i)] >= max(SHAPE_ONLY_FIT, best - RANK_MARGIN)]
+            alike = set().union(*(LOOK_ALIKE.get(k, ()) for k in kinds)) - kinds
+            found = fits or [i for i in found if i.kind in alike]  # else one of a kind it looks like
         elif best >= loose:  # the colour decides; the shape ranks: the best fits (a loose bound) ...
             found = [i for i in found if fit[id(i)] >= max(loose, best - RANK_MARGIN)]
         else:  # ... or all of that colour but those surely of another kind (a chest is no block)

@@ -325,3 +325,22 @@ def test_an_open_chest_that_reads_as_a_dustpan_as_well_has_its_lid_found(sim_pro
     assert region.kind != "lidded_box" and region.scores["lidded_box"] >= 0.8  # the premise: it reads as both
     (lid,) = seg.segment(frame.rgb, "the lid of the dark red box", frame.depth)
     assert iou(lid.mask, lid_truth) > 0.5
+
+
+def test_a_pan_whose_washed_out_handle_reads_apart_is_the_pan_a_bowl_alone_would_be(sim_profile_with, tmp_path):
+    """A light pink pan's lit handle reads white, a region of its own, and the body alone is a shallow bowl: "the
+    pan", with no region of a pan's kind nor fitting one, is the one region of the kind it looks like."""
+    pan = {"name": "pan", "kind": "pan", "color": "light_pink", "radius_m": 0.095, "height_m": 0.038}
+    pan |= {"xy_m": [0.5294, 0.3054], "yaw_deg": 159.82}
+    ball = {"name": "ball", "kind": "sphere", "color": "light_green", "radius_m": 0.039, "xy_m": [0.315, 0.2364]}
+    path = tmp_path / "pan.yaml"
+    scene = {"name": "p", "objects": [pan, ball], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
+    path.write_text(yaml.safe_dump(scene))
+    _, camera = view(sim_profile_with, str(path))
+    with camera:
+        frame, truth = camera.read(), camera.object_masks()
+    seg = OfflineSegmenter()
+    assert "pan" not in {i.kind for i in seg.instances(frame.rgb)}  # the premise: no region reads as a pan
+    (found,) = seg.segment(frame.rgb, "the pan", frame.depth)
+    assert iou(found.mask, truth["pan"]) > 0.7
+    assert seg.segment(frame.rgb, "the bottle", frame.depth) == []  # a kind with no look-alike: still nothing
