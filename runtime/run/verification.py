@@ -12,7 +12,7 @@ from drivers.types import RGBDFrame
 from pipeline.grounding.achieved import AchievedMotion, measure_achieved
 from pipeline.grounding.compare import Comparison, compare, rotation_deg
 from pipeline.grounding.level import kept_level
-from pipeline.grounding.lid import face_tilt_deg
+from pipeline.grounding.lid import face_tilt_deg, over_its_box
 from pipeline.grounding.settle import settled
 from pipeline.perception.features import FeatureExtractor
 from pipeline.perception.segmenter import Detection, Segmenter
@@ -86,9 +86,13 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
     else:
         record = AchievedRecord(method="registration", registration=MotionRecord.of(achieved.registration))
     ctx.record.summary.achieved_motion = record
-    if not achieved.ok:
-        return Verification(ok=False, reason=f"could not measure the achieved motion: {achieved.reason}")
     cfg = ctx.profile.runtime
+    closing = instruction_action(ctx.instruction) == "close"
+    if not achieved.ok:
+        unmeasured = f"could not measure the achieved motion: {achieved.reason}"
+        if closing and _lid_over_its_box(before, goal.mask_anchor, after, mask_after):
+            return lid_shut(after, mask_after, None, cfg.verify_lid_shut_tol_deg, unmeasured)
+        return Verification(ok=False, reason=unmeasured)
     comparison = compare(
         goal_R=ctx.motion.R,
         goal_t=ctx.motion.t,
@@ -104,10 +108,28 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
     if achieved.registration is not None and achieved.registration.details.get("hint_taken"):
         hinted = f"{comparison.reason} (measured from the goal's motion as a hint: the captures show it as well as any)"
         comparison = comparison.model_copy(update={"reason": hinted})
-    closing = instruction_action(ctx.instruction) == "close"
-    if closing and comparison.position_error_m <= comparison.position_tol_m:  # where it should be: is it shut?
+    # where it should be, by the achieved motion or by where its points lie (over its box: a thin uniform lid's
+    # registration can land off): is it shut?
+    if closing and (
+        comparison.position_error_m <= comparison.position_tol_m
+        or _lid_over_its_box(before, goal.mask_anchor, after, mask_after)
+    ):
         return lid_shut(after, mask_after, comparison, cfg.verify_lid_shut_tol_deg)
     return Verification(ok=comparison.ok, reason=comparison.reason, comparison=comparison)
+
+
+def _lid_over_its_box(before: RGBDFrame, mask_box: np.ndarray | None, after: RGBDFrame, mask_lid: np.ndarray) -> bool:
+    if mask_box is None:
+        return False
+
+    def points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
+        T = frame.T_base_camera
+        return (
+            frame.intrinsics.unproject_depth_image(frame.depth)[mask & np.isfinite(frame.depth)] @ T[:3, :3].T
+            + T[:3, 3]
+        )
+
+    return over_its_box(points(after, mask_lid), points(before, mask_box))
 
 
 def _at_rest(
@@ -141,12 +163,15 @@ def _at_rest(
     return replace(achieved, R=A_R @ achieved.R, t=A_R @ achieved.t + A_t, registration=motion)
 
 
-def lid_shut(after: RGBDFrame, mask_lid: np.ndarray, comparison: Comparison, tol_deg: float) -> Verification:
-    """A close whose lid ended where its goal puts it: verified only if the lid's seen face lies within tol_deg of
-    the table's plane (shut), measured on the capture after execution. Shut is the goal a close asks for, and a lid
-    lies flat only turned all the way, so a shut lid's turn off the goal image's is not held against it: the goal
-    image may draw the lid a little short of shut or past it (a lid shut 22 deg off a goal drawn past shut was a
-    false failure); a lid left open fails however well it matched its goal."""
+def lid_shut(
+    after: RGBDFrame, mask_lid: np.ndarray, comparison: Comparison | None, tol_deg: float, unmeasured: str = ""
+) -> Verification:
+    """A close whose lid ended where its goal puts it, or lies over its box (`comparison` None: its motion could not
+    be measured, `unmeasured` says why): verified only if the lid's seen face lies within tol_deg of the table's
+    plane (shut), measured on the capture after execution. Shut is the goal a close asks for, and a lid lies flat
+    only turned all the way, so a shut lid's turn off the goal image's is not held against it: the goal image may
+    draw the lid a little short of shut or past it (a lid shut 22 deg off a goal drawn past shut was a false
+    failure); a lid left open fails however well it matched its goal."""
     T = after.T_base_camera
     points = after.intrinsics.unproject_depth_image(after.depth)[mask_lid & np.isfinite(after.depth)]
     tilt = face_tilt_deg(points @ T[:3, :3].T + T[:3, 3])
@@ -157,8 +182,12 @@ def lid_shut(after: RGBDFrame, mask_lid: np.ndarray, comparison: Comparison, tol
     if tilt > tol_deg:
         reason = f"the lid is not shut: its face is {tilt:.0f} deg off the table's plane (at most {tol_deg:.0f})"
         return Verification(ok=False, reason=reason, comparison=comparison, lid_tilt_deg=tilt)
-    if comparison.ok:
+    if comparison is None:
+        reason = f"lid shut within {tilt:.1f} deg over its box ({unmeasured})"
+    elif comparison.ok:
         reason = f"{comparison.reason}, lid shut within {tilt:.1f} deg"
-    else:
+    elif comparison.position_error_m <= comparison.position_tol_m:
         reason = f"lid shut within {tilt:.1f} deg (the goal image's lid was drawn off shut: {comparison.reason})"
+    else:
+        reason = f"lid shut within {tilt:.1f} deg over its box (its measured motion is off: {comparison.reason})"
     return Verification(ok=True, reason=reason, comparison=comparison, lid_tilt_deg=tilt)

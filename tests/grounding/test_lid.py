@@ -124,3 +124,32 @@ def test_a_shut_lid_off_a_goal_drawn_past_shut_is_verified_and_an_open_one_is_no
     assert verdict.ok and "lid shut within" in verdict.reason and "21.6 deg off the goal" in verdict.reason
     frame, mask = render_lid(25.0)
     assert not lid_shut(frame, mask, turned_off, tol_deg=10.0).ok
+
+
+def _box_points() -> np.ndarray:
+    """The box under the lid: its top and sides, 7 cm tall, the hinge along its far top edge (x = 0.45)."""
+    x, y, z = np.meshgrid(np.linspace(0.45, 0.55, 21), np.linspace(-0.075, 0.075, 31), np.linspace(0.0, 0.07, 15))
+    return np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+
+
+def test_a_shut_lid_lies_over_its_box_and_an_open_or_fallen_one_does_not():
+    from pipeline.grounding.lid import over_its_box
+
+    box = _box_points()
+    for open_deg, over in ((0.0, True), (4.0, True), (60.0, False), (90.0, False)):
+        frame, mask = render_lid(open_deg)
+        assert over_its_box(base_points(frame, mask), box) is over, open_deg
+    frame, mask = render_lid(0.0)
+    fallen = base_points(frame, mask) + np.array([0.0, 0.2, -0.07])  # beside the box, on the table
+    assert not over_its_box(fallen, box)
+    assert not over_its_box(base_points(frame, mask), box[:10])  # too few of the box's points to tell
+
+
+def test_a_shut_lid_whose_motion_could_not_be_measured_is_judged_by_its_face():
+    unmeasured = "could not measure the achieved motion: no turn about the hinge explains the images"
+    frame, mask = render_lid(1.0)
+    verdict = lid_shut(frame, mask, None, tol_deg=10.0, unmeasured=unmeasured)
+    assert verdict.ok and verdict.comparison is None
+    assert "over its box" in verdict.reason and unmeasured in verdict.reason
+    frame, mask = render_lid(30.0)
+    assert not lid_shut(frame, mask, None, tol_deg=10.0, unmeasured=unmeasured).ok
