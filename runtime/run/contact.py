@@ -73,9 +73,10 @@ def contact_config(ctx: RunContext, robot: RobotModel) -> ContactConfig:
 def contact_plans(ctx: RunContext, clouds: SceneClouds, robot: RobotModel, q_start: np.ndarray) -> list[ContactPlan]:
     """Ranked contact plans, recorded; StageError with pipeline.contact's rejection counts when there is none.
 
-    A push with no room for the hand behind the object (a neighbour within the closed fingers' depth, the standoff
-    and the gate's padding) is carried instead when the profile allows it: the goal is where the object ends, and a
-    grasp set down there reaches it without the hand going behind."""
+    A push that cannot be made (mostly for want of room for the hand behind the object: a neighbour within the
+    closed fingers' depth, the standoff and the gate's padding) is carried instead when the profile allows it: the
+    goal is where the object ends, and a grasp set down there reaches it without the hand going behind. The push's
+    rejections are recorded either way (`carried_because`)."""
     mode = contact_mode(ctx.instruction)
     config = contact_config(ctx, robot)
     result = _plan(ctx, clouds, robot, q_start, mode, config)
