@@ -128,8 +128,10 @@ class Table:
         middle = outline.mean(axis=0) + 0.5 * step
         sweep = float(np.max(np.linalg.norm(outline - outline.mean(axis=0), axis=1)) + 0.5 * np.linalg.norm(step))
         near = self.obstacles.data[self.obstacles.query_ball_point(middle, sweep + PATH_CLEAR_M)]
+        if not len(near):
+            return None
         path = cKDTree(outline)
-        near = near[path.query(near)[0] >= PATH_CLEAR_M] if len(near) else near  # not already touching
+        near = near[path.query(near)[0] >= PATH_CLEAR_M]  # not already touching
         n = max(2, int(np.ceil(np.linalg.norm(step) / PATH_STEP_M)) + 1)
         for f in np.linspace(0.0, 1.0, n)[1:]:
             if len(near) and path.query(near - f * step)[0].min() < PATH_CLEAR_M:
