@@ -280,12 +280,10 @@ class Reasoner:
             alike = checks.like_the_target(found, rgb, mask_init, cand)
             if len(alike) < len(found):
                 areas = ", ".join(str(d.area_px) for d in found)
-                took = (
-                    f"took the one of the target's size ({alike[0].area_px} px, {int(mask_init.sum())} px before)"
-                    if alike
-                    else "each stands where it stood, away from the target's first place: none is the target"
+                it.checks.append(
+                    f"target '{enh.target}' matched {len(found)} regions (areas {areas} px): took the one "
+                    f"of the target's size ({alike[0].area_px} px, {int(mask_init.sum())} px before)"
                 )
-                it.checks.append(f"target '{enh.target}' matched {len(found)} regions (areas {areas} px): {took}")
             found = alike  # each cut to what is new in it (a ball on a plate of its colour is one region with it)
             problems += checks.target_count_problems(found, enh.target)
             mask_goal = found[0].mask if len(found) == 1 else None
