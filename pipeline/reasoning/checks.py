@@ -137,15 +137,10 @@ def like_the_target(detections: list[Detection], rgb_init: np.ndarray, mask_init
     part of another object, left uncovered when the target was put on it, that now reads as the phrase) are not;
     of the rest, the only one whose area is within SAME_AREA_RATIO of the target's in the initial image and whose
     mean colour is within SAME_COLOUR of its; all of them when none or several are (an editor that left the object
-    where it was and drew it again is refused; when all of them were already there, those on the target's first
-    place, if any). Each region kept that is too large to be the target alone is cut to
+    where it was and drew it again is refused). Each region kept that is too large to be the target alone is cut to
     what is new in it (_new_part)."""
     still = unchanged_pixels(rgb_init, rgb) & ~mask_init
-    new = [d for d in detections if still[d.mask].mean() < UNCHANGED_SHARE]
-    # all were there before: the target is one only where it first was (an edit that left it in place); a region
-    # wholly elsewhere and unchanged is another object (a dark green can taken for the green cube whose turned
-    # rendering the segmenter did not find)
-    detections = new or [d for d in detections if (d.mask & mask_init).any()]
+    detections = [d for d in detections if still[d.mask].mean() < UNCHANGED_SHARE] or detections
     area0 = max(int(mask_init.sum()), 1)
     detections = [_new_part(d, still) if d.area_px > SAME_AREA_RATIO * area0 else d for d in detections]
     if len(detections) < 2:
