@@ -90,3 +90,8 @@ class Segmenter(ABC):
         """All instances of `phrase`, best first; an empty list when there is none. `depth_m` (metres, aligned with
         `rgb`, NaN unknown), where the image has one, tells touching from overlapping in the image: a lid hinged
         on its box from a thing standing behind the box."""
+
+    def colour_of(self, rgb: np.ndarray, mask: np.ndarray) -> str | None:
+        """The colour word a phrase would name the region under `mask` by, or None when the backend cannot tell (a
+        part is then found again by its phrase alone)."""
+        return None

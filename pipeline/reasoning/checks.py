@@ -13,7 +13,8 @@ import cv2
 import numpy as np
 
 from pipeline.config import ChecksConfig
-from pipeline.perception.segmenter import Detection, box_of
+from pipeline.grounding.verify import chromaticity
+from pipeline.perception.segmenter import Detection, Segmenter, box_of
 
 
 @dataclass(frozen=True)
@@ -100,6 +101,8 @@ UNCHANGED_SHARE = 0.8  # ... and a region this much of whose pixels off the targ
 OLD_MIN_SHARE = 0.2  # a region this much of which looks as before off the target's first place holds another object
 NEW_MIN_SHARE = 0.1  # a region's new part, at least this share of it, is the target (the rest was there before)
 NEUTRAL_SATURATION = 40  # of 255: a target less saturated than this is white, gray or black
+CHANGED_SHARE = 0.5  # a region found among the changed pixels is one when at least this share of it changed
+SAME_CHROMA = 0.06  # ... and its mean chromaticity within this of the target's (a white can in the shade is white)
 
 
 def colour_change(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:
@@ -116,19 +119,59 @@ def unchanged_pixels(rgb_init: np.ndarray, rgb: np.ndarray) -> np.ndarray:
     return change <= max(UNCHANGED_LEVELS, 3.0 * float(np.median(change)))
 
 
-def changed_only(rgb_init: np.ndarray, rgb: np.ndarray, mask_init: np.ndarray) -> np.ndarray:
-    """`rgb` with every pixel that still looks as in `rgb_init` painted one saturated colour, opposite the target's
-    hue (green for a neutral target): what the edit changed stands alone. An object put on one it merges with (a
-    white can on a scale's white plate, a cube on a bowl read with it as a chest and its lid) is one region with
-    it, named by the other; painted over, the other is gone and the moved object is a region of its own."""
+def changed_only(rgb_init: np.ndarray, rgb: np.ndarray, mask_init: np.ndarray, still: np.ndarray) -> np.ndarray:
+    """`rgb` with every `still` pixel (one that looks as in `rgb_init`) painted one saturated colour, opposite the
+    target's hue (green for a neutral target): what the edit changed stands alone. An object put on one it merges
+    with (a white can on a scale's white plate, a cube on a bowl read with it as a chest and its lid) is one region
+    with it, named by the other; painted over, the other is gone and the moved object is a region of its own. An
+    unchanged object enclosed by changed pixels keeps its outline in the paint's colour: regions found in this image
+    are the target only where they changed (find_again)."""
     hsv_init = cv2.cvtColor(rgb_init, cv2.COLOR_RGB2HSV_FULL)[mask_init].astype(np.float64)
     paint = np.array([[[85, 255, 255]]], np.uint8)  # green (hue out of 256)
     if len(hsv_init) and np.median(hsv_init[:, 1]) >= NEUTRAL_SATURATION:
         hue = np.angle(np.exp(2j * np.pi * hsv_init[:, 0] / 256).mean()) / (2 * np.pi) * 256
         paint[..., 0] = round(float(hue) + 128) % 256
     out = rgb.copy()
-    out[unchanged_pixels(rgb_init, rgb)] = cv2.cvtColor(paint, cv2.COLOR_HSV2RGB_FULL)[0, 0]
+    out[still] = cv2.cvtColor(paint, cv2.COLOR_HSV2RGB_FULL)[0, 0]
     return out
+
+
+def find_again(
+    segmenter: Segmenter,
+    rgb: np.ndarray,
+    phrase: str,
+    rgb_init: np.ndarray,
+    mask_init: np.ndarray,
+    depth_m: np.ndarray | None = None,
+    mask_anchor: np.ndarray | None = None,
+) -> tuple[list[Detection], str]:
+    """The regions `phrase` names in a later image of the scene (a goal candidate, a capture after execution), and
+    how they were found when the phrase alone found none ("" when it did): among the pixels that changed
+    (changed_only: the target merged with what it was put on); or, for a part of another colour than its object
+    (`mask_anchor`: a lid's box), by the part's own colour in the first image (a lid of another colour shut over its
+    box hides the box's top, what is left of the box reads as another kind, and "the lid of the pink chest" names
+    nothing)."""
+    found = segmenter.segment(rgb, phrase, depth_m)
+    if found:
+        return found, ""
+    still = unchanged_pixels(rgb_init, rgb)
+    found = segmenter.segment(changed_only(rgb_init, rgb, mask_init, still), phrase, depth_m)
+    chroma0 = chromaticity(rgb_init[mask_init]).mean(axis=0)
+    found = [  # new there, and of the target's colour in any light (not the table a moved object left uncovered)
+        d
+        for d in found
+        if still[d.mask].mean() <= 1.0 - CHANGED_SHARE
+        and np.linalg.norm(chromaticity(rgb[d.mask]).mean(axis=0) - chroma0) <= SAME_CHROMA
+    ]
+    if found:
+        return found, "among the pixels that changed"
+    if mask_anchor is None:
+        return [], ""
+    colour = segmenter.colour_of(rgb_init, mask_init)
+    if colour is None or colour == segmenter.colour_of(rgb_init, mask_anchor):
+        return [], ""
+    found = segmenter.segment(rgb, colour, depth_m)
+    return found, f"by its own colour, {colour}" if found else ""
 
 
 def like_the_target(detections: list[Detection], rgb_init: np.ndarray, mask_init: np.ndarray, rgb: np.ndarray):

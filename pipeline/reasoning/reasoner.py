@@ -134,7 +134,7 @@ class Reasoner:
             it = Iteration(index, prompt)
             iterations.append(it)
             group_size = len(initial) if enh.group else None
-            candidate = self._iterate(frame, instruction, enh, mask_init, it, rec, seconds, group_size)
+            candidate = self._iterate(frame, instruction, enh, mask_init, it, rec, seconds, group_size, mask_anchor)
             rec.json("iteration.json", it, index)
             if candidate is not None:
                 usable = candidate
@@ -212,17 +212,19 @@ class Reasoner:
             raise ReasoningError(reason, [reason])
         return found[0].mask
 
-    def _find_target(self, rgb, cand, enh, mask_init: np.ndarray, it: Iteration) -> list[Detection]:
-        """The target phrase's regions in the candidate; when there is none, those among what the edit changed
-        (checks.changed_only: the target merged with what it was put on)."""
-        found = self._segment(cand, enh.target)
-        if found or enh.group:
-            return found
-        found = self._segment(checks.changed_only(rgb, cand, mask_init), enh.target)
-        if found:
-            it.checks.append(
-                f"target '{enh.target}' found only among the pixels the edit changed (it merges with what it is on)"
-            )
+    def _find_target(
+        self, rgb, cand, enh, mask_init: np.ndarray, mask_anchor: np.ndarray | None, it: Iteration
+    ) -> list[Detection]:
+        """The target phrase's regions in the candidate; when there is none, found as checks.find_again finds them
+        (a group's parts by their phrase alone)."""
+        if enh.group:
+            return self._segment(cand, enh.target)
+        try:
+            found, how = checks.find_again(self.segmenter, cand, enh.target, rgb, mask_init, mask_anchor=mask_anchor)
+        except SegmentationError as e:
+            raise ReasoningError(f"segmentation of '{enh.target}' failed: {e}", [str(e)]) from e
+        if how:
+            it.checks.append(f"target '{enh.target}' found only {how}")
         return found
 
     def _segment(self, rgb: np.ndarray, phrase: str, depth_m: np.ndarray | None = None) -> list[Detection]:
@@ -232,10 +234,20 @@ class Reasoner:
             raise ReasoningError(f"segmentation of '{phrase}' failed: {e}", [str(e)]) from e
 
     def _iterate(
-        self, frame, instruction, enh, mask_init, it: Iteration, rec: Recorder, seconds, group_size: int | None = None
+        self,
+        frame,
+        instruction,
+        enh,
+        mask_init,
+        it: Iteration,
+        rec: Recorder,
+        seconds,
+        group_size: int | None = None,
+        mask_anchor: np.ndarray | None = None,
     ) -> _Candidate | None:
         """One generate -> check -> synthesize -> reflect pass; fills `it`, returns a usable candidate or None.
-        group_size: a group target's instances in the initial image (None: one object)."""
+        group_size: a group target's instances in the initial image (None: one object); mask_anchor: a part's
+        object (a lid's box)."""
         cfg, rgb, i = self.config.checks, frame.rgb, it.index
         rec.text("prompt.txt", it.prompt, i)
 
@@ -257,7 +269,7 @@ class Reasoner:
 
         t0 = time.perf_counter()
         cand, problems = checks.resize_to(result.rgb, rgb.shape[:2])
-        found = self._find_target(rgb, cand, enh, mask_init, it)
+        found = self._find_target(rgb, cand, enh, mask_init, mask_anchor, it)
         lap("segment", t0)
         t0 = time.perf_counter()
         others = np.any([d.mask for d in found], axis=0) if found else np.zeros_like(mask_init)
@@ -272,7 +284,7 @@ class Reasoner:
                 cand, uncovered = checks.reregister(rgb, cand, framing)
                 it.registered = True
                 it.checks.append(f"{note}; re-registered ({100 * uncovered:.1f} % of the view uncovered)")
-                found = self._find_target(rgb, cand, enh, mask_init, it)
+                found = self._find_target(rgb, cand, enh, mask_init, mask_anchor, it)
         if enh.group:
             problems += group.count_problems(found, group_size, enh.target)
             mask_goal = np.any([d.mask for d in found], axis=0) if found and not problems else None

@@ -83,7 +83,9 @@ def look_again(
 
     if not regions:
         return record("still", f"nothing moved since {basis} (depth within {cfg.depth_change_m * 1000:.0f} mm)")
-    detections = find_target_again(segmenter, look.rgb, goal.target, before.rgb, goal.mask_init, look.depth)
+    detections = find_target_again(
+        segmenter, look.rgb, goal.target, before.rgb, goal.mask_init, look.depth, goal.mask_anchor
+    )
     if len(detections) != 1:
         changes = [_change(r, "scene", look) for r in regions]
         _rebase_capture(ctx, look, name)

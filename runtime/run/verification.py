@@ -16,7 +16,7 @@ from pipeline.grounding.lid import face_tilt_deg, over_its_box
 from pipeline.grounding.settle import settled
 from pipeline.perception.features import FeatureExtractor
 from pipeline.perception.segmenter import Detection, Segmenter
-from pipeline.reasoning.checks import changed_only, like_the_target
+from pipeline.reasoning.checks import find_again, like_the_target
 from runtime.run.contact import COMES_TO_REST, PUTS_DOWN, instruction_action
 from runtime.run.context import RunContext
 from runtime.run.summary import AchievedRecord, MotionRecord, Verification
@@ -37,15 +37,14 @@ def find_target_again(
     rgb_before: np.ndarray,
     mask_before: np.ndarray,
     depth_m: np.ndarray | None = None,
+    mask_anchor: np.ndarray | None = None,
 ) -> list[Detection]:
     """The regions the target phrase matches in a later image; of several, the only one of the target's size and
     colour in the planning capture, as the goal image's is taken (a cube seen from another side may no longer
-    look like a cube, and its colour word then matches a bowl of that colour as well). When it matches none, those
-    among what changed since the planning capture (checks.changed_only: the target merged with what it was put
-    on, a white can on a scale's white plate)."""
-    found = segmenter.segment(rgb, target, depth_m) or segmenter.segment(
-        changed_only(rgb_before, rgb, mask_before), target, depth_m
-    )
+    look like a cube, and its colour word then matches a bowl of that colour as well). When it matches none, as
+    checks.find_again finds them (among what changed since the planning capture; a part of another colour than
+    its object, `mask_anchor`, by that colour)."""
+    found, _ = find_again(segmenter, rgb, target, rgb_before, mask_before, depth_m, mask_anchor)
     return like_the_target(found, rgb_before, mask_before, rgb)
 
 
@@ -65,7 +64,9 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         return verify_lift(ctx, after, segmenter)
     if ctx.contact is not None and ctx.contact.T_set is not None:  # tipped over onto its face: its other side shows
         return verify_laid(ctx, after, segmenter)
-    detections = find_target_again(segmenter, after.rgb, goal.target, before.rgb, goal.mask_init, after.depth)
+    detections = find_target_again(
+        segmenter, after.rgb, goal.target, before.rgb, goal.mask_init, after.depth, goal.mask_anchor
+    )
     if len(detections) != 1:
         return Verification(ok=False, reason=f"target '{goal.target}' found {len(detections)} times after execution")
     mask_after = detections[0].mask

@@ -77,7 +77,7 @@ def test_a_white_can_put_on_a_scales_white_plate_is_found_in_the_goal_among_what
     goal = build_reasoner(PipelineConfig()).run(frame, "put the white can on the light red scale")
     assert goal.validated
     accepted = goal.iterations[-1]
-    assert any("found only among the pixels the edit changed" in c for c in accepted.checks), accepted.checks
+    assert any("found only among the pixels that changed" in c for c in accepted.checks), accepted.checks
     motion = ground(GroundingInput.from_goal(frame, goal), make_feature_extractor("offline"))
     assert motion.ok, motion.reason
     T = goal.T_goal_init_camera

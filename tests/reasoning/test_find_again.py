@@ -1,0 +1,57 @@
+"""A target found again in a later image when its phrase names nothing there: a lid of another colour, shut over
+its chest, hides the chest's top; what is left of the chest reads as another kind, and the lid is found by its own
+colour in the first image. A lid of its chest's own colour is not looked for that way (every piece of the chest
+would be of that colour)."""
+
+from __future__ import annotations
+
+import math
+
+import yaml
+
+from pipeline.perception.offline_segmenter import OfflineSegmenter
+from pipeline.reasoning.checks import find_again
+from sim_helpers import set_hinge
+
+
+def _open_and_shut(sim_profile_with, tmp_path, lid_color: str | None):
+    from drivers.sim import SimCamera, SimWorld
+
+    chest = {"name": "chest", "kind": "lidded_box", "size_m": [0.127, 0.165, 0.07], "color": "light_pink"}
+    chest |= {"xy_m": [0.5142, 0.0935], "yaw_deg": -20.4, "lid_open_deg": 101.9}
+    chest |= {"lid_color": lid_color} if lid_color else {}
+    path = tmp_path / "chest.yaml"
+    scene = {"name": "c", "objects": [chest], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
+    path.write_text(yaml.safe_dump(scene))
+    profile = sim_profile_with({"sim": {"scene": str(path)}})
+    world = SimWorld(profile.sim, profile.camera)
+    with SimCamera(world, seed=0) as camera:
+        opened, lid_open, box = camera.read(), camera.body_mask("chest_lid"), camera.object_masks()["chest"]
+        set_hinge(world, "chest_hinge", math.radians(0.5))
+        shut, lid_shut = camera.read(), camera.body_mask("chest_lid")
+    return opened, lid_open, box & ~lid_open, shut, lid_shut
+
+
+def test_a_shut_lid_of_another_colour_is_found_by_its_colour(sim_profile_with, tmp_path):
+    opened, lid_open, box, shut, lid_shut = _open_and_shut(sim_profile_with, tmp_path, "dark_blue")
+    seg = OfflineSegmenter()
+    (lid,) = seg.segment(opened.rgb, "the lid of the chest", opened.depth)
+    assert (lid.mask & lid_open).sum() > 0.8 * lid.area_px
+    (found,), _how = find_again(seg, shut.rgb, "the lid of the chest", opened.rgb, lid.mask, shut.depth, box)
+    assert (found.mask & lid_shut).sum() / (found.mask | lid_shut).sum() > 0.6
+    # by its colour alone: a phrase that names nothing in the shut view, nor among the pixels that changed
+    phrase = "the lid of the bottle"
+    assert find_again(seg, shut.rgb, phrase, opened.rgb, lid.mask, shut.depth) == ([], "")  # no anchor: no colour
+    (found,), how = find_again(seg, shut.rgb, phrase, opened.rgb, lid.mask, shut.depth, mask_anchor=box)
+    assert how == "by its own colour, blue"
+    assert (found.mask & lid_shut).sum() / (found.mask | lid_shut).sum() > 0.6
+
+
+def test_a_lid_of_its_chests_colour_is_not_looked_for_by_that_colour(sim_profile_with, tmp_path):
+    opened, _lid_open, box, shut, _lid_shut = _open_and_shut(sim_profile_with, tmp_path, "light_pink")
+    seg = OfflineSegmenter()
+    (lid,) = seg.segment(opened.rgb, "the lid of the light pink chest", opened.depth)
+    # a phrase that names nothing shut: by the lid's colour, every pink piece of the chest would come back
+    assert seg.segment(shut.rgb, "pink", shut.depth) != []
+    found, how = find_again(seg, shut.rgb, "the lid of the bottle", opened.rgb, lid.mask, shut.depth, box)
+    assert found == [] and how == ""
