@@ -68,3 +68,24 @@ def put_object(world: SimWorld, name: str, xyz_m: tuple[float, float, float], se
     world.data.qvel[dof : dof + 6] = 0.0
     mujoco.mj_forward(world.model, world.data)
     world.step(settle_s)
+
+
+def write_can_and_scale(path) -> str:
+    """A scene file: a white can beside a light red scale, whose weighing plate is white too (the can set on it is
+    one white region with the plate); its path, for the profile's sim.scene."""
+    import yaml
+
+    objects = [
+        {
+            "name": "can",
+            "kind": "cylinder",
+            "color": "white",
+            "radius_m": 0.031,
+            "height_m": 0.059,
+            "xy_m": [0.42, -0.30],
+        },
+        {"name": "scale", "kind": "platform", "color": "light_red", "size_m": [0.101, 0.112, 0.031]}
+        | {"xy_m": [0.41, -0.01], "yaw_deg": -142.0},
+    ]
+    path.write_text(yaml.safe_dump({"name": "s", "objects": objects, "randomise": {"xy_jitter_m": 0.0}}))
+    return str(path)

@@ -202,11 +202,17 @@ class OfflineSegmenter(Segmenter):
             found = [(whole, lid) for whole, lid in found if whole.region.area >= CHEST_AREA_RATIO * largest]
         return [Detection(lid, _score(w, want), box_of(lid), f"{want.part} of {_label(w)}") for w, lid in found]
 
-    def colour_of(self, rgb: np.ndarray, mask: np.ndarray) -> str | None:
-        """The colour of the region covering most of `mask`; None when no region covers any of it."""
-        overlap = [(int((i.region.mask & mask).sum()), i.region.colour) for i in self.instances(rgb)]
-        best = max(overlap, default=(0, None))
-        return best[1] if best[0] > 0 else None
+    def colours_of(self, rgb: np.ndarray, *masks: np.ndarray) -> tuple[str | None, ...]:
+        """Per mask, the colour of the region covering most of it; None where no region covers any of it."""
+        instances = self.instances(rgb)
+
+        def colour(mask: np.ndarray) -> str | None:
+            overlap, name = max(
+                ((int((i.region.mask & mask).sum()), i.region.colour) for i in instances), default=(0, None)
+            )
+            return name if overlap > 0 else None
+
+        return tuple(colour(m) for m in masks)
 
     def instances(self, rgb: np.ndarray) -> list[Instance]:
         """Every colour region of the image with its kind."""

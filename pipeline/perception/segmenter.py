@@ -91,7 +91,7 @@ class Segmenter(ABC):
         `rgb`, NaN unknown), where the image has one, tells touching from overlapping in the image: a lid hinged
         on its box from a thing standing behind the box."""
 
-    def colour_of(self, rgb: np.ndarray, mask: np.ndarray) -> str | None:
-        """The colour word a phrase would name the region under `mask` by, or None when the backend cannot tell (a
+    def colours_of(self, rgb: np.ndarray, *masks: np.ndarray) -> tuple[str | None, ...]:
+        """The colour word a phrase would name the region under each mask by, None where the backend cannot tell (a
         part is then found again by its phrase alone)."""
-        return None
+        return (None,) * len(masks)

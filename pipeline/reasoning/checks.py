@@ -167,8 +167,8 @@ def find_again(
         return found, "among the pixels that changed"
     if mask_anchor is None:
         return [], ""
-    colour = segmenter.colour_of(rgb_init, mask_init)
-    if colour is None or colour == segmenter.colour_of(rgb_init, mask_anchor):
+    colour, anchor_colour = segmenter.colours_of(rgb_init, mask_init, mask_anchor)
+    if colour is None or colour == anchor_colour:
         return [], ""
     found = segmenter.segment(rgb, colour, depth_m)
     return found, f"by its own colour, {colour}" if found else ""

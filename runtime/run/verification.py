@@ -20,7 +20,7 @@ from pipeline.reasoning.checks import find_again, like_the_target
 from runtime.run.contact import COMES_TO_REST, PUTS_DOWN, instruction_action
 from runtime.run.context import RunContext
 from runtime.run.summary import AchievedRecord, MotionRecord, Verification
-from runtime.run.verify_task import verify_group, verify_laid, verify_lift
+from runtime.run.verify_task import base_points, verify_group, verify_laid, verify_lift
 
 CAMERA_STILL_MM, CAMERA_STILL_DEG = 2.0, 0.2  # verification needs both captures from one camera pose
 
@@ -120,17 +120,7 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
 
 
 def _lid_over_its_box(before: RGBDFrame, mask_box: np.ndarray | None, after: RGBDFrame, mask_lid: np.ndarray) -> bool:
-    if mask_box is None:
-        return False
-
-    def points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
-        T = frame.T_base_camera
-        return (
-            frame.intrinsics.unproject_depth_image(frame.depth)[mask & np.isfinite(frame.depth)] @ T[:3, :3].T
-            + T[:3, 3]
-        )
-
-    return over_its_box(points(after, mask_lid), points(before, mask_box))
+    return mask_box is not None and over_its_box(base_points(after, mask_lid), base_points(before, mask_box))
 
 
 def _at_rest(
@@ -173,9 +163,7 @@ def lid_shut(
     only turned all the way, so a shut lid's turn off the goal image's is not held against it: the goal image may
     draw the lid a little short of shut or past it (a lid shut 22 deg off a goal drawn past shut was a false
     failure); a lid left open fails however well it matched its goal."""
-    T = after.T_base_camera
-    points = after.intrinsics.unproject_depth_image(after.depth)[mask_lid & np.isfinite(after.depth)]
-    tilt = face_tilt_deg(points @ T[:3, :3].T + T[:3, 3])
+    tilt = face_tilt_deg(base_points(after, mask_lid))
     if tilt is None:
         return Verification(
             ok=False, reason="too few points of the lid to tell whether it is shut", comparison=comparison

@@ -71,7 +71,8 @@ def _union(masks):
     return out
 
 
-def _base_points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
+def base_points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
+    """The frame's points under `mask` with a known depth, base frame."""
     valid = mask & np.isfinite(frame.depth)
     return transform_points(frame.T_base_camera, frame.intrinsics.unproject_depth_image(frame.depth)[valid])
 
@@ -88,7 +89,7 @@ def _target_clouds(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> t
     if len(found) != 1:
         raise _NotMeasured(f"target '{goal.target}' found {len(found)} times after execution")
     ctx.record.image("mask_after", found[0].mask)
-    p0, p1 = _base_points(ctx.frame0, goal.mask_init), _base_points(after, found[0].mask)
+    p0, p1 = base_points(ctx.frame0, goal.mask_init), base_points(after, found[0].mask)
     if len(p0) < 10 or len(p1) < 10:
         raise _NotMeasured(f"too few points with depth: {len(p0)} before, {len(p1)} after")
     return p0, p1

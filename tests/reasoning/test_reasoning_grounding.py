@@ -59,19 +59,10 @@ def test_a_white_can_put_on_a_scales_white_plate_is_found_in_the_goal_among_what
 ):
     """In the goal image the can and the plate are one white region, which the scale's base names: the target is
     found among the pixels the edit changed, the goal is validated and grounding recovers the composed motion."""
-    import yaml
-
     from drivers.sim import SimCamera, SimWorld
+    from sim_helpers import write_can_and_scale
 
-    objects = [
-        {"name": "can", "kind": "cylinder", "color": "white", "radius_m": 0.031, "height_m": 0.059},
-        {"name": "scale", "kind": "platform", "color": "light_red", "size_m": [0.101, 0.112, 0.031]},
-    ]
-    objects[0] |= {"xy_m": [0.42, -0.30]}
-    objects[1] |= {"xy_m": [0.41, -0.01], "yaw_deg": -142.0}
-    path = tmp_path / "scale.yaml"
-    path.write_text(yaml.safe_dump({"name": "s", "objects": objects, "randomise": {"xy_jitter_m": 0.0}}))
-    profile = sim_profile_with({"sim": {"scene": str(path)}})
+    profile = sim_profile_with({"sim": {"scene": write_can_and_scale(tmp_path / "scale.yaml")}})
     with SimCamera(SimWorld(profile.sim, profile.camera), seed=0) as camera:
         frame = camera.read().with_extrinsics(camera.T_base_camera)
     goal = build_reasoner(PipelineConfig()).run(frame, "put the white can on the light red scale")

@@ -51,21 +51,11 @@ def test_two_regions_like_the_target_stay_two():
 def test_a_white_can_on_a_scales_white_plate_is_found_among_what_changed(sim_profile_with, tmp_path):
     """The can and the scale's plate are one white region, named by the scale's base: the phrase matches nothing in
     the image as it is; among the pixels that changed since the planning capture, the can stands alone."""
-    import yaml
-
     from drivers.sim import SimCamera, SimWorld
     from pipeline.perception.offline_segmenter import OfflineSegmenter
-    from sim_helpers import put_object
+    from sim_helpers import put_object, write_can_and_scale
 
-    objects = [
-        {"name": "can", "kind": "cylinder", "color": "white", "radius_m": 0.031, "height_m": 0.059},
-        {"name": "scale", "kind": "platform", "color": "light_red", "size_m": [0.101, 0.112, 0.031]},
-    ]
-    objects[0] |= {"xy_m": [0.42, -0.30]}
-    objects[1] |= {"xy_m": [0.41, -0.01], "yaw_deg": -142.0}
-    path = tmp_path / "scale.yaml"
-    path.write_text(yaml.safe_dump({"name": "s", "objects": objects, "randomise": {"xy_jitter_m": 0.0}}))
-    profile = sim_profile_with({"sim": {"scene": str(path)}})
+    profile = sim_profile_with({"sim": {"scene": write_can_and_scale(tmp_path / "scale.yaml")}})
     world = SimWorld(profile.sim, profile.camera)
     seg = OfflineSegmenter()
     with SimCamera(world, seed=0) as camera:
