@@ -1,6 +1,6 @@
-"""The score main's grounding would give the true motion: ground()'s own preparation (goal depth aligned on the
-background, object views) and selection (ICP polish, view agreement times ICP fitness) with each of the true motion's
-twins under the true symmetry (the same goal image, e.g. a can spun about its axis) as its only hypothesis: the
+"""The score main's grounding would give the true motion: ground()'s own preparation (prepare: goal depth aligned on
+the background, object views) and selection (ICP polish, view agreement times ICP fitness) with each of the true
+motion's twins under the true symmetry (the same goal image, e.g. a can spun about its axis) as its only hypothesis: the
 plain truth of a spun can carries the seen side out of view, so only its best twin says what a right answer
 scores. ground() refuses below GroundingConfig.min_view_score, so the share of true motions under it is the share
 of right answers the refusal would throw away, whatever the search finds."""
@@ -11,12 +11,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bench.pairgen.generate import TrueSymmetry
-from pipeline.grounding.depth_align import DepthAlignmentError, fit_depth_alignment
-from pipeline.grounding.ground import object_size
+from pipeline.grounding.prepare import prepare
 from pipeline.grounding.select import select_motion
-from pipeline.grounding.types import GroundingConfig, GroundingInput
+from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import chromaticity, make_view
 
 SPIN_STEP_DEG = 10.0  # twins of a body of revolution: turns about its axis this far apart
 
@@ -48,25 +46,9 @@ def true_motion_agreement(inp: GroundingInput, twins: list[Similarity], cfg: Gro
     would refuse before scoring any motion (the goal depth does not fit the scene, too few object pixels)."""
     if cfg.work_width_px is not None and cfg.work_width_px < inp.intrinsics.width:
         inp = inp.resized(cfg.work_width_px)
-    K = inp.intrinsics
-    depth0 = np.where(np.isfinite(inp.depth0) & (inp.depth0 > 0), inp.depth0, np.nan).astype(np.float32)
-    try:
-        align = fit_depth_alignment(depth0, inp.depth1, ~(inp.mask0 | inp.mask1), inp.depth1_kind, seed=cfg.seed)
-    except DepthAlignmentError:
+    pp = prepare(inp, cfg)
+    if isinstance(pp, ObjectMotion):
         return 0.0
-    if align.inlier_fraction < cfg.min_background_inliers or align.residual_m > cfg.max_depth_residual_m:
-        return 0.0
-    depth1 = align.apply(inp.depth1)
-    points0, points1 = K.unproject_depth_image(depth0), K.unproject_depth_image(depth1)
-    valid0, valid1 = inp.mask0 & np.isfinite(depth0), inp.mask1 & np.isfinite(depth1)
-    if valid0.sum() < cfg.min_inliers or valid1.sum() < cfg.min_inliers:
-        return 0.0
-    cloud0 = points0[valid0]
-    size = object_size(cloud0)
-    chroma0, chroma1 = chromaticity(inp.rgb0), chromaticity(inp.rgb1)
-    voxel = max(cfg.icp_voxel_m, size / 40)
-    view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
-    view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel)
     # each twin on its own: ground()'s coarse ranking keeps only a few, and a look-alike twin may push out the one
     # that keeps the seen side in view
-    return max(float(select_motion([twin], view0, view1, K, size, cfg)[0]) for twin in twins)
+    return max(float(select_motion([twin], pp.view0, pp.view1, inp.intrinsics, pp.size, cfg)[0]) for twin in twins)

@@ -109,6 +109,7 @@ def measure_achieved(
         mask1=mask_after,
         intrinsics=before.intrinsics,
         anchor0=anchor_before,
+        depth1_measured=True,
     )
     up_camera = before.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
     hints = [] if expected is None else expected_hints(*expected, centre, up_camera, symmetry)

@@ -14,49 +14,16 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
-from pipeline.grounding.depth_align import DepthAlignment, DepthAlignmentError, fit_depth_alignment
 from pipeline.grounding.hypotheses import ball_hypotheses, face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
+from pipeline.grounding.prepare import Prepared, prepare, refuse
 from pipeline.grounding.select import select_motion
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
-from pipeline.grounding.verify import chromaticity, make_view
 from pipeline.perception.features import FeatureExtractor
 
 MAX_CONSISTENCY_MATCHES = 1500
 ALIGNED_RESIDUAL_OF_THRESHOLD = 0.5  # an inlier RMS above this share of the inlier threshold is no alignment
-
-
-def object_size(points: np.ndarray) -> float:
-    """Robust extent of a cloud [m]: the diagonal of its 5-95 percentile box."""
-    lo, hi = np.percentile(points, [5, 95], axis=0)
-    return float(np.linalg.norm(hi - lo))
-
-
-def refuse(reason: str, **fields) -> ObjectMotion:
-    return ObjectMotion(ok=False, reason=reason, **fields)
-
-
-def align_goal_depth(
-    inp: GroundingInput, cfg: GroundingConfig, T_base_camera: np.ndarray | None = None, what: str = ""
-) -> tuple[np.ndarray, np.ndarray, DepthAlignment] | ObjectMotion:
-    """(the capture's depth with holes as NaN, the goal depth aligned to it on the background, the alignment), or
-    the refusal when the goal depth does not fit the scene; `what` prefixes the reason."""
-    depth0 = np.where(np.isfinite(inp.depth0) & (inp.depth0 > 0), inp.depth0, np.nan).astype(np.float32)
-    background = ~(inp.mask0 | inp.mask1)
-    try:
-        align = fit_depth_alignment(depth0, inp.depth1, background, inp.depth1_kind, seed=cfg.seed)
-    except DepthAlignmentError as e:
-        return refuse(f"{what}depth alignment failed: {e}")
-    if align.inlier_fraction < cfg.min_background_inliers or align.residual_m > cfg.max_depth_residual_m:
-        return refuse(
-            f"{what}goal depth does not fit the scene: background residual {align.residual_m * 1000:.1f} mm "
-            f"(limit {cfg.max_depth_residual_m * 1000:.0f}), inliers {align.inlier_fraction:.0%} "
-            f"(need {cfg.min_background_inliers:.0%})",
-            depth_residual_m=align.residual_m,
-            T_base_camera=T_base_camera,
-        )
-    return depth0, align.apply(inp.depth1), align
 
 
 def ground(
@@ -72,37 +39,35 @@ def ground(
     if cfg.work_width_px is not None and cfg.work_width_px < inp.intrinsics.width:
         inp = inp.resized(cfg.work_width_px)
     K = inp.intrinsics
-    aligned = align_goal_depth(inp, cfg, T_base_camera)
-    if isinstance(aligned, ObjectMotion):
-        return aligned
-    depth0, depth1, align = aligned
-    background = ~(inp.mask0 | inp.mask1)
-    common = {"depth_residual_m": align.residual_m, "T_base_camera": T_base_camera}
-    points0, points1 = K.unproject_depth_image(depth0), K.unproject_depth_image(depth1)
-    valid0, valid1 = inp.mask0 & np.isfinite(depth0), inp.mask1 & np.isfinite(depth1)
-    if valid0.sum() < cfg.min_inliers or valid1.sum() < cfg.min_inliers:
-        return refuse(f"too few object pixels with depth: {valid0.sum()} initial, {valid1.sum()} goal", **common)
+    prepared = prepare(inp, cfg, T_base_camera)
+    if isinstance(prepared, ObjectMotion):
+        return prepared
+    pp = prepared
+    view0, view1, size, align = pp.view0, pp.view1, pp.size, pp.align
+    common = {"depth_residual_m": align.residual_m, "T_base_camera": T_base_camera, "object_size_m": size}
+    if inp.anchor0 is not None:  # a part that turns about where it meets its anchor (a lid on its box)
+        return _ground_hinged(inp, pp, cfg, common)
     rng = np.random.default_rng(cfg.seed)
-    src = np.argwhere(valid0)[:, ::-1]
+    src = np.argwhere(pp.valid0)[:, ::-1]
     if len(src) > cfg.max_source_pixels:
         src = src[rng.choice(len(src), cfg.max_source_pixels, replace=False)]
-    dst = np.argwhere(valid1)[:, ::-1]
+    dst = np.argwhere(pp.valid1)[:, ::-1]
     m = match_pixels(
-        features, inp.rgb0, src, inp.rgb1, dst, points0, points1, mutual=cfg.mutual, min_similarity=cfg.min_similarity
+        features,
+        inp.rgb0,
+        src,
+        inp.rgb1,
+        dst,
+        pp.points0,
+        pp.points1,
+        mutual=cfg.mutual,
+        min_similarity=cfg.min_similarity,
     )
-    cloud0 = points0[valid0]
-    size = object_size(cloud0)
-    common["object_size_m"] = size
-    if inp.anchor0 is not None:  # a part that turns about where it meets its anchor (a lid on its box)
-        return _ground_hinged(inp, points0, points1, valid0, valid1, size, cfg, common)
     common["matches"] = len(m.src_px)
     threshold = max(cfg.inlier_min_m, cfg.inlier_rel * size)
-    fits = _feature_hypotheses(points0, points1, m, size, threshold, cfg, rng)
-    chroma0, chroma1 = chromaticity(inp.rgb0), chromaticity(inp.rgb1)
-    voxel = max(cfg.icp_voxel_m, size / 40)
-    view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
-    view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel)
-    up = _up_direction(points0[background & np.isfinite(depth0)], T_base_camera, rng)
+    fits = _feature_hypotheses(pp.points0, pp.points1, m, size, threshold, cfg, rng)
+    background = ~(inp.mask0 | inp.mask1)
+    up = _up_direction(pp.points0[background & np.isfinite(pp.depth0)], T_base_camera, rng)
     sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
     candidates = fits + face_hypotheses(view0, view1) + ball_hypotheses(view0, view1) + sweep
     view_score, sim, hinted = select_motion(candidates, view0, view1, K, size, cfg, hints)
@@ -146,7 +111,7 @@ def ground(
             residual_m=rms,
             **common,
         )
-    centre = cloud0.mean(axis=0)
+    centre = pp.cloud0.mean(axis=0)
     t_rigid = sim.apply(centre[None])[0] - sim.R @ centre  # the centre lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))
     return ObjectMotion(
@@ -158,7 +123,7 @@ def ground(
         residual_m=rms,
         confidence=confidence,
         details={
-            "depth_alignment": align.__dict__,
+            "depth_alignment": align.summary(),
             "view_score": view_score,
             "threshold_m": threshold,
             **({"hint_taken": True} if hinted else {}),
@@ -167,17 +132,9 @@ def ground(
     )
 
 
-def _ground_hinged(
-    inp: GroundingInput,
-    points0: np.ndarray,
-    points1: np.ndarray,
-    valid0: np.ndarray,
-    valid1: np.ndarray,
-    size: float,
-    cfg: GroundingConfig,
-    common: dict,
-) -> ObjectMotion:
+def _ground_hinged(inp: GroundingInput, pp: Prepared, cfg: GroundingConfig, common: dict) -> ObjectMotion:
     """The turn of a hinged part about the line where it meets its anchor (pipeline.grounding.articulation)."""
+    points0, points1, valid0, valid1, size = pp.points0, pp.points1, pp.valid0, pp.valid1, pp.size
     try:
         hinge = find_hinge(points0[valid0], points0[inp.anchor0 & np.isfinite(points0[..., 2])])
     except HingeNotFound as e:

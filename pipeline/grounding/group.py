@@ -17,7 +17,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
 from drivers.types import CameraIntrinsics
-from pipeline.grounding.ground import align_goal_depth, object_size, refuse
+from pipeline.grounding.prepare import align_goal_depth, object_size, refuse
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from safety.geometry import transform_points
 

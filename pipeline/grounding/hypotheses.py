@@ -25,7 +25,7 @@ from scipy.spatial.transform import Rotation
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import ball_centre
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import View
+from pipeline.grounding.verify import DEPTH_SIGMAS, View
 
 MAX_POINTS = 120  # per cloud: a coarse check needs the shape, not every point
 CHROMA_SIGMA = 0.08
@@ -209,7 +209,8 @@ def sweep_hypotheses(
     closeness0 = mask_closeness(view0.mask, sigma_px)
     closeness1 = mask_closeness(view1.mask, sigma_px)
     rotations = rotation_sweep(up)
-    scores, t = coarse_scores(rotations, view0, view1, closeness0, closeness1, K, DEPTH_TOL_REL * size_m)
+    tol = max(DEPTH_TOL_REL * size_m, DEPTH_SIGMAS * view1.depth_sigma_m)
+    scores, t = coarse_scores(rotations, view0, view1, closeness0, closeness1, K, tol)
     order = np.argsort(-scores)
     distinct = order[_distinct(rotations[order], SEED_SEPARATION_DEG, DISTINCT_PEAKS)]
     ranked = list(distinct) + [k for k in order[:keep] if k not in set(distinct)]

@@ -117,6 +117,7 @@ class GroundingInput:
     mask1: np.ndarray
     intrinsics: CameraIntrinsics
     anchor0: np.ndarray | None = None  # initial-view mask of the object the target is hinged to (stays put)
+    depth1_measured: bool = False  # depth1 is a sensor's (after execution), not a model's: nothing to undo
 
     @classmethod
     def from_goal(cls, frame, goal) -> GroundingInput:
@@ -179,4 +180,5 @@ class GroundingInput:
             near(self.mask1.astype(np.uint8)).astype(bool),
             K.resized(width, height),
             None if self.anchor0 is None else near(self.anchor0.astype(np.uint8)).astype(bool),
+            self.depth1_measured,
         )

@@ -6,6 +6,9 @@ colour (agreement), lies in front of the observed surface or off the goal mask (
 behind it (occluded: no evidence). The same is done backwards, goal cloud into the initial view. The score is
 the mean agreement share of the two directions: it separates the right motion from symmetric or partial-view
 look-alikes that the feature consensus alone cannot tell apart.
+
+The observed depth is matched within a tolerance no finer than the goal depth's own error (DEPTH_SIGMAS of it: a
+model's depth is good to several millimetres, not to a sensor's one).
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ import numpy as np
 
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.umeyama import Similarity
+
+DEPTH_SIGMAS = 2.5  # depth agreement is no finer than this many standard errors of the goal depth
 
 
 @dataclass(frozen=True)
@@ -28,6 +33,7 @@ class View:
     depth: np.ndarray  # (H, W) metric, NaN invalid
     mask: np.ndarray  # (H, W) bool
     chroma_image: np.ndarray  # (H, W, 3)
+    depth_sigma_m: float = 0.0  # standard error of `depth` (a model's goal depth; 0: a sensor's, negligible)
 
 
 def chromaticity(rgb: np.ndarray) -> np.ndarray:
@@ -37,7 +43,13 @@ def chromaticity(rgb: np.ndarray) -> np.ndarray:
 
 
 def make_view(
-    cloud: np.ndarray, chroma: np.ndarray, depth: np.ndarray, mask: np.ndarray, chroma_image: np.ndarray, voxel_m: float
+    cloud: np.ndarray,
+    chroma: np.ndarray,
+    depth: np.ndarray,
+    mask: np.ndarray,
+    chroma_image: np.ndarray,
+    voxel_m: float,
+    depth_sigma_m: float = 0.0,
 ) -> View:
     import open3d as o3d
 
@@ -46,7 +58,8 @@ def make_view(
     pcd = pcd.voxel_down_sample(voxel_m)
     pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=4 * voxel_m, max_nn=30))
     pcd.orient_normals_towards_camera_location(np.zeros(3))
-    return View(np.asarray(pcd.points), np.asarray(pcd.normals), np.asarray(pcd.colors), depth, mask, chroma_image)
+    points, normals, colours = np.asarray(pcd.points), np.asarray(pcd.normals), np.asarray(pcd.colors)
+    return View(points, normals, colours, depth, mask, chroma_image, depth_sigma_m)
 
 
 def _agreement(
@@ -79,7 +92,9 @@ def _agreement(
 def view_consistency(
     hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float, chroma_tol: float = 0.06
 ) -> float:
-    """Mean agreement share (0..1) of initial -> goal and goal -> initial under the hypothesis."""
+    """Mean agreement share (0..1) of initial -> goal and goal -> initial under the hypothesis; depths agree within
+    `tol_m` or DEPTH_SIGMAS standard errors of the goal depth, whichever is larger."""
+    tol_m = max(tol_m, DEPTH_SIGMAS * max(initial.depth_sigma_m, goal.depth_sigma_m))
     inverse = Similarity(1.0 / hypothesis.scale, hypothesis.R.T, -(hypothesis.R.T @ hypothesis.t) / hypothesis.scale)
     fwd, _ = _agreement(initial, goal, hypothesis, K, tol_m, chroma_tol)
     bwd, _ = _agreement(goal, initial, inverse, K, tol_m, chroma_tol)

@@ -1,0 +1,69 @@
+"""Grounding's preparation of a generated goal: the editor's colour drift undone on the background, a model's noisy
+depth smoothed inside the object (a sensor's left alone), and the error left in it measured."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.grounding.prepare import goal_depth_error, match_colours, pixel_noise, smooth_inside, smoothing_px
+
+
+def test_an_editors_colour_drift_is_undone_on_the_object_too():
+    rng = np.random.default_rng(0)
+    reference = rng.integers(20, 235, (60, 80, 3)).astype(np.uint8)
+    gain, offset = np.array([1.12, 0.9, 0.95]), np.array([-12.0, 8.0, 14.0])
+    drifted = np.clip(reference * gain + offset, 0, 255).astype(np.uint8)
+    obj = np.zeros((60, 80), bool)
+    obj[20:40, 30:50] = True
+    drifted[obj] = rng.integers(0, 255, (int(obj.sum()), 3))  # the object moved: its pixels say nothing
+    undone = match_colours(drifted, reference, ~obj)
+    error = np.abs(undone[~obj] - reference[~obj].astype(np.float32))
+    assert float(np.median(error)) < 1.5 < float(np.median(np.abs(drifted[~obj] - reference[~obj].astype(float))))
+
+
+@pytest.mark.parametrize(("noise_rel", "smoothed"), [(0.0005, False), (0.002, False), (0.01, True)])
+def test_only_a_models_noise_is_smoothed(noise_rel, smoothed):
+    rng = np.random.default_rng(1)
+    v, _u = np.mgrid[0:120, 0:160]
+    depth = (0.7 + 0.003 * v).astype(np.float32)
+    noisy = (depth * (1 + noise_rel * rng.normal(size=depth.shape))).astype(np.float32)
+    measured = pixel_noise(noisy, np.ones(depth.shape, bool))
+    assert measured == pytest.approx(noise_rel, rel=0.35)
+    sigma = smoothing_px(measured)
+    assert (sigma > 0) == smoothed
+    if smoothed:
+        before = goal_depth_error(depth, noisy, np.ones(depth.shape, bool), 0.0)
+        after = goal_depth_error(depth, noisy, np.ones(depth.shape, bool), sigma)
+        assert after < 0.4 * before  # the error the comparison is judged by shrinks with the smoothing
+
+
+def test_smoothing_inside_the_object_leaves_what_lies_behind_it_out():
+    depth = np.full((40, 40), 1.0, np.float32)
+    obj = np.zeros((40, 40), bool)
+    obj[10:30, 10:30] = True
+    depth[obj] = 0.8
+    smooth = smooth_inside(depth, obj, 3.0)
+    np.testing.assert_allclose(smooth[obj], 0.8, atol=1e-5)  # its edge is not pulled toward the table
+    np.testing.assert_array_equal(smooth[~obj], depth[~obj])
+
+
+def test_depth_agreement_is_no_finer_than_the_goal_depths_error():
+    from drivers.types import CameraIntrinsics
+    from pipeline.grounding.umeyama import Similarity
+    from pipeline.grounding.verify import make_view, view_consistency
+
+    K = CameraIntrinsics(80, 60, 80.0, 80.0, 39.5, 29.5)
+    obj = np.zeros((60, 80), bool)
+    obj[20:40, 30:50] = True
+    depth0 = np.where(obj, 0.8, 1.0).astype(np.float32)
+    depth1 = np.where(obj, 0.808, 1.0).astype(np.float32)  # the model put the object 8 mm further off
+    chroma = np.full((60, 80, 3), 1 / 3, np.float32)
+
+    def view(depth, sigma):
+        cloud = K.unproject_depth_image(depth)[obj]
+        return make_view(cloud, chroma[obj], depth, obj, chroma, 0.004, sigma)
+
+    still = Similarity(1.0, np.eye(3), np.zeros(3))
+    assert view_consistency(still, view(depth0, 0.0), view(depth1, 0.0), K, 0.004) < 0.1
+    assert view_consistency(still, view(depth0, 0.0), view(depth1, 0.005), K, 0.004) > 0.9
