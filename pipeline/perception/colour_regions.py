@@ -50,6 +50,11 @@ PART_BORDER_FRACTION = 0.6  # an unsaturated region this much bordered by one re
 SPLIT_BLACK_MAX, SPLIT_LIGHT_MIN = 0.15, 0.55  # a black object's value (lit faces too) and a light one's
 SPLIT_MIN_PX = 30
 LIT_FACE_MIN_VALUE = 0.6  # an unsaturated region darker than this is no lit face of a coloured object
+# a pale surface whose saturation sits at MIN_SATURATION splits along a ragged line into a colour and white: the two
+# are one surface where the pixels on either side of the line differ by no more than this (no edge between them)
+SAME_SURFACE_HUE_DEG, SAME_SURFACE_SAT, SAME_SURFACE_VAL = 15.0, 0.04, 0.06
+SAME_SURFACE_MIN_SAT = 0.5 * MIN_SATURATION  # the white side is tinted with the colour, just under the bound
+SAME_SURFACE_MIN_BORDER = 0.1  # share of the white part's outline along the line (and at least 10 px)
 ACHROMATIC_LABEL = len(CHROMATIC)
 BACKGROUND_LABEL = -1
 
@@ -236,9 +241,38 @@ def _lit_face_of(ids: np.ndarray, names: list[str], i: int, hue: np.ndarray, sat
     return other if washed_out and border >= 0.15 else 0
 
 
+def _same_surface_as(
+    ids: np.ndarray, names: list[str], i: int, hue: np.ndarray, sat: np.ndarray, val: np.ndarray
+) -> int:
+    """The coloured component that unsaturated component i is one surface with, or 0: a pale surface (a light pink
+    plate's top) whose saturation straddles MIN_SATURATION is cut by it along a ragged line with no edge in the
+    image: the pixels on either side have one hue, saturation and brightness. Two objects that touch differ across
+    the line where they meet (a white box by a pale pink one: their saturations are apart)."""
+    kernel = np.ones((3, 3), np.uint8)
+    own = ids == i
+    grown = cv2.dilate(own.astype(np.uint8), kernel).astype(bool)
+    outline = int((grown & ~own).sum())
+    for j in np.unique(ids[grown & ~own]):
+        if j <= 0 or names[j] not in HUES:
+            continue
+        theirs = grown & (ids == j)  # their side of the line
+        mine = own & cv2.dilate((ids == j).astype(np.uint8), kernel).astype(bool)  # my side
+        if theirs.sum() < max(10, SAME_SURFACE_MIN_BORDER * outline) or mine.sum() < 10:
+            continue
+        same = (
+            hue_distance(np.median(hue[mine]), float(np.median(hue[theirs]))) <= SAME_SURFACE_HUE_DEG
+            and abs(np.median(sat[mine]) - np.median(sat[theirs])) <= SAME_SURFACE_SAT
+            and abs(np.median(val[mine]) - np.median(val[theirs])) <= SAME_SURFACE_VAL
+            and np.median(sat[mine]) >= SAME_SURFACE_MIN_SAT
+        )
+        if same:
+            return int(j)
+    return 0
+
+
 def regions(rgb: np.ndarray, min_area: int) -> list[Region]:
     """Connected regions of each colour, unsaturated parts joined to their object (a pale object's lit face, a
-    scale's weighing plate), holes filled (a
+    scale's weighing plate, the rest of a pale surface cut by the saturation bound), holes filled (a
     highlight, a pan's floor and what lies on it), specks below `min_area` and regions touching the image border
     (floor, robot, table edge) left out."""
     ids, names = _components(rgb)
@@ -246,7 +280,11 @@ def regions(rgb: np.ndarray, min_area: int) -> list[Region]:
     sizes = np.bincount(ids.ravel(), minlength=len(names))
     for i in np.flatnonzero(sizes >= min_area // 4):
         if i > 0 and names[i] == "achromatic":
-            j = _lit_face_of(ids, names, int(i), hue, sat, val) or _weighing_plate_base(ids, int(i), val, sat)
+            j = (
+                _lit_face_of(ids, names, int(i), hue, sat, val)
+                or _weighing_plate_base(ids, int(i), val, sat)
+                or _same_surface_as(ids, names, int(i), hue, sat, val)
+            )
             if j:  # the face joins its object, and so do the other faces of that colour around it
                 ring = cv2.dilate((ids == i).astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
                 for k in np.unique(ids[ring]):

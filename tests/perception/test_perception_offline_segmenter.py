@@ -186,3 +186,35 @@ def test_small_and_tall_blocks_are_blocks(size_px, why):
     cv2.rectangle(img, (70, 30), (70 + w - 1, 30 + h // 4), (60, 200, 70), -1)  # its lit top face
     found = OfflineSegmenter().segment(img, "the block")
     assert [d.label for d in found] == ["green box"], why
+
+
+def pale(saturation: float, value: float = 1.0, hue_deg: float = 300.0) -> tuple[int, int, int]:
+    """An RGB colour of the given HSV (hue in degrees)."""
+    hsv_px = np.uint8([[[hue_deg / 2, round(saturation * 255), round(value * 255)]]])
+    return tuple(int(c) for c in cv2.cvtColor(hsv_px, cv2.COLOR_HSV2RGB)[0, 0])
+
+
+def test_a_pale_surface_cut_by_the_saturation_bound_is_one_region():
+    """A light pink plate's top sits at the bound between a colour and white: its pixels fall either side along a
+    ragged line with nothing in the image between them. It is one pink plate, not a white box and a pink sliver."""
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    cv2.ellipse(img, (80, 60), (34, 26), 0, 0, 360, pale(0.13), -1)
+    rng = np.random.default_rng(0)
+    ragged = np.zeros(img.shape[:2], bool)
+    ragged[:, :70] = True
+    ragged &= rng.random(ragged.shape) < 0.9  # the line between the two is ragged
+    inside = np.all(img == pale(0.13), axis=-1)
+    img[inside & ragged] = pale(0.15)
+    found = OfflineSegmenter().instances(img)
+    assert len(found) == 1, [(f.region.colour, f.kind) for f in found]
+    assert found[0].region.colour == "pink" and found[0].kind == "plate"
+    assert found[0].region.area >= 0.9 * inside.sum()
+
+
+def test_a_white_object_touching_a_pale_one_stays_apart():
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    cv2.rectangle(img, (30, 40), (70, 80), pale(0.09, 0.9), -1)  # a white box, tinted by the light
+    cv2.rectangle(img, (30, 72), (70, 80), pale(0.09, 0.8), -1)  # (its shaded side)
+    cv2.rectangle(img, (71, 40), (111, 80), pale(0.4, 0.9), -1)  # a pink box against it
+    colours = sorted(f.region.colour for f in OfflineSegmenter().instances(img))
+    assert colours == ["pink", "white"]
