@@ -46,7 +46,10 @@ BLACK_MIN_FRACTION = 0.05  # ... or this fraction of dark pixels (a black scale 
 # two touching objects of one hue, a pale shade and a deep one (light blue, dark blue), are one region by hue: they
 # are split by saturation, which shading leaves alone, when its two modes are this far apart
 SPLIT_SATURATION_RATIO = 0.65
-PART_BORDER_FRACTION = 0.6  # an unsaturated region this much bordered by one region can be its lit face
+PART_BORDER_FRACTION = 0.6  # an unsaturated region this much bordered by one region can be its lit face ...
+PALE_TINT, PALE_BORDER_FRACTION = 0.07, 0.3  # ... or this much when tinted this strongly (half the colour bound): the
+# lit part of a pale plate whose shaded part (a shadow across it, its rim) reads as the colour; a white object
+# under white light keeps its saturation near 0
 SPLIT_BLACK_MAX, SPLIT_LIGHT_MIN = 0.15, 0.55  # a black object's value (lit faces too) and a light one's
 SPLIT_MIN_PX = 30
 LIT_FACE_MIN_VALUE = 0.6  # an unsaturated region darker than this is no lit face of a coloured object
@@ -224,7 +227,8 @@ def _weighing_plate_base(ids: np.ndarray, i: int, val: np.ndarray, sat: np.ndarr
 
 def _lit_face_of(ids: np.ndarray, names: list[str], i: int, hue: np.ndarray, sat: np.ndarray, val: np.ndarray) -> int:
     """The pale object whose lit face component i is, or 0: mostly bordered by one colour and faintly tinted
-    with its hue (a light pink pan's lit floor), or washed out to full scale all over and no larger than the
+    with its hue (a light pink pan's lit floor; a third of its outline is enough when the tint is plain, a light
+    pink plate's top beside its shaded part), or washed out to full scale all over and no larger than the
     coloured faces around it (a pink box's top in the light; a white object has shaded faces in its own region,
     a white plate under a red block is far larger than the block)."""
     other, border = _bordering(ids, i, names)
@@ -232,8 +236,8 @@ def _lit_face_of(ids: np.ndarray, names: list[str], i: int, hue: np.ndarray, sat
         return 0
     own = ids == i
     lit = np.median(val[own]) >= LIT_FACE_MIN_VALUE  # a face in the light is bright: a gray block in a bowl is not
-    tinted = lit and np.median(sat[own]) >= 0.035 and hue_distance(np.median(hue[own]), HUES[names[other]]) <= 30.0
-    if tinted and border >= PART_BORDER_FRACTION:
+    tint = np.median(sat[own]) if lit and hue_distance(np.median(hue[own]), HUES[names[other]]) <= 30.0 else 0.0
+    if (tint >= 0.035 and border >= PART_BORDER_FRACTION) or (tint >= PALE_TINT and border >= PALE_BORDER_FRACTION):
         return other
     ring = cv2.dilate(own.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
     faces = np.isin(ids, [k for k in np.unique(ids[ring]) if k > 0 and names[k] == names[other]])

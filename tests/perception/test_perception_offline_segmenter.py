@@ -218,3 +218,23 @@ def test_a_white_object_touching_a_pale_one_stays_apart():
     cv2.rectangle(img, (71, 40), (111, 80), pale(0.4, 0.9), -1)  # a pink box against it
     colours = sorted(f.region.colour for f in OfflineSegmenter().instances(img))
     assert colours == ["pink", "white"]
+
+
+def test_a_pale_plates_lit_part_joins_its_shaded_part():
+    """A shadow across a light pink plate reads as pink and its lit part, washed out, as white faintly tinted pink:
+    bordered by the pink along a third of its outline, it is the same plate."""
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    cv2.ellipse(img, (80, 60), (40, 28), 0, 0, 360, pale(0.09, 1.0), -1)  # the lit top
+    plate = np.all(img == pale(0.09, 1.0), axis=-1)
+    img[plate & (np.arange(120)[:, None] < 56)] = pale(0.3, 0.8, 330.0)  # a shadow over its far part
+    found = OfflineSegmenter().instances(img)
+    assert [(f.region.colour, f.kind) for f in found] == [("pink", "plate")]
+
+
+def test_a_white_plate_under_a_coloured_block_stays_white():
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    cv2.ellipse(img, (80, 60), (40, 28), 0, 0, 360, pale(0.01, 0.95), -1)  # a white plate
+    plate = np.all(img == pale(0.01, 0.95), axis=-1)
+    img[plate & (np.arange(120)[:, None] < 56)] = pale(0.5, 0.8, 330.0)  # a pink slab across its far part
+    colours = sorted(f.region.colour for f in OfflineSegmenter().instances(img))
+    assert colours == ["pink", "white"]
