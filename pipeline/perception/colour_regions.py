@@ -52,7 +52,6 @@ PALE_TINT, PALE_BORDER_FRACTION = 0.07, 0.3  # ... or this much when tinted this
 # under white light keeps its saturation near 0
 SPLIT_BLACK_MAX, SPLIT_LIGHT_MIN = 0.15, 0.55  # a black object's value (lit faces too) and a light one's
 SPLIT_MIN_PX = 30
-NECK_PX = 6  # a part of a border region joined to it by a neck under twice this wide is an object of its own
 LIT_FACE_MIN_VALUE = 0.6  # an unsaturated region darker than this is no lit face of a coloured object
 # a pale surface whose saturation sits at MIN_SATURATION splits along a ragged line into a colour and white: the two
 # are one surface where the pixels on either side of the line differ by no more than this (no edge between them)
@@ -296,34 +295,15 @@ def regions(rgb: np.ndarray, min_area: int) -> list[Region]:
                     if k > 0 and names[k] == names[j]:
                         ids[ids == k] = j
                 ids[ids == i] = j
+    h, w = ids.shape
     out: list[Region] = []
     for i in np.unique(ids):
         m = ids == i
         if i == 0 or m.sum() < min_area:
             continue
-        if _touches_border(m):
-            if names[i] == "achromatic":  # a gray object against the robot's base, one region with it
-                out += [Region(fill_holes(p), achromatic_name(val[p])) for p in _off_border_pieces(m, min_area)]
+        v, u = np.nonzero(m)
+        if v.min() == 0 or u.min() == 0 or v.max() == h - 1 or u.max() == w - 1:
             continue
         colour = names[i] if names[i] != "achromatic" else achromatic_name(val[m])
         out.append(Region(fill_holes(m), colour))
     return out
-
-
-def _touches_border(mask: np.ndarray) -> bool:
-    h, w = mask.shape
-    v, u = np.nonzero(mask)
-    return bool(v.min() == 0 or u.min() == 0 or v.max() == h - 1 or u.max() == w - 1)
-
-
-def _off_border_pieces(mask: np.ndarray, min_area: int) -> list[np.ndarray]:
-    """The parts of a region touching the image border (the floor, the robot) that hang on to it by a neck
-    narrower than NECK_PX on each side: objects that merely touch it (a gray bowl against the robot's dark base)."""
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * NECK_PX + 1, 2 * NECK_PX + 1))
-    cores = cv2.erode(mask.astype(np.uint8), kernel)  # no core pixel in a neck: the parts fall apart
-    pieces = []
-    for core in _connected(cores):
-        piece = cv2.dilate(core.astype(np.uint8), kernel).astype(bool) & mask
-        if not _touches_border(piece) and piece.sum() >= min_area:
-            pieces.append(piece)
-    return pieces
