@@ -9,10 +9,9 @@ squares on its inliers. A model's prediction is also slowly warped by a few perc
 global map absorbs (a 4 % warp leaves most of the background off by more than 1 %); what the affine map leaves on
 the background, smoothed over a twentieth of the image (normalised convolution; over a fifth where an object
 leaves too little background that close), is that warp, and is taken out everywhere, under the objects too, where
-the surrounding background says what it is. A correction beyond
-MAX_WARP of the value is no warp but a wrong model of the prediction, and is refused; one that barely lowers the
-background's residual (WARP_GAIN) is not made. The residual is reported
-in metres so a caller can refuse.
+the surrounding background says what it is. A correction beyond MAX_WARP of the value is no warp but a wrong model
+of the prediction, and is refused; one that barely lowers the background's residual (WARP_GAIN) is not made. The
+residual is reported in metres so a caller can refuse.
 """
 
 from __future__ import annotations
@@ -23,7 +22,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-EDGE_BAND_PX = 4  # background pixels this close to an object mask do not take part in the fit
+EDGE_BAND_PX = 4  # background pixels this close to an object mask do not take part in the fit (bled edges)
 CONSENSUS_REL = 0.06  # a pixel agrees with the global map within this share of its depth (before the warp is out)
 WARP_SIGMA_REL = 0.05  # the warp is smoothed over this share of the image's width (a wave 0.6 wide keeps 87 %) ...
 WARP_FILL_SIGMA_REL = 0.2  # ... and filled in over this share where little background is that close (large objects)
@@ -94,8 +93,7 @@ def fit_depth_alignment(
     """
     if kind not in ("depth", "disparity"):
         raise DepthAlignmentError(f"depth kind must be 'depth' or 'disparity', got {kind!r}")
-    band = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * EDGE_BAND_PX + 1, 2 * EDGE_BAND_PX + 1))
-    away = cv2.erode(np.asarray(background, np.uint8), band, borderValue=1).astype(bool)
+    away = away_from_outline(background, EDGE_BAND_PX)
     valid_all = np.asarray(background, bool) & np.isfinite(depth_m) & (depth_m > 0) & np.isfinite(pred)
     valid = away & valid_all if (away & valid_all).sum() >= 50 else valid_all  # a thin background keeps its edges
     n_valid = int(valid.sum())
@@ -144,6 +142,12 @@ def fit_depth_alignment(
     if residual > WARP_GAIN * affine_residual:  # the prediction shows no warp worth taking out (a sensor's depth)
         return replace(fit, warp_max=warp_max)
     return replace(warped, inlier_fraction=float(inl.mean()), residual_m=residual, affine_residual_m=affine_residual)
+
+
+def away_from_outline(mask: np.ndarray, px: int) -> np.ndarray:
+    """The mask without a band of `px` pixels along its outline (the image's border is no outline)."""
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * px + 1, 2 * px + 1))
+    return cv2.erode(np.asarray(mask, np.uint8), kernel).astype(bool)
 
 
 def _affine(

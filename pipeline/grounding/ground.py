@@ -39,10 +39,9 @@ def ground(
     if cfg.work_width_px is not None and cfg.work_width_px < inp.intrinsics.width:
         inp = inp.resized(cfg.work_width_px)
     K = inp.intrinsics
-    prepared = prepare(inp, cfg, T_base_camera)
-    if isinstance(prepared, ObjectMotion):
-        return prepared
-    pp = prepared
+    pp = prepare(inp, cfg, T_base_camera)
+    if isinstance(pp, ObjectMotion):
+        return pp
     view0, view1, size, align = pp.view0, pp.view1, pp.size, pp.align
     common = {"depth_residual_m": align.residual_m, "T_base_camera": T_base_camera, "object_size_m": size}
     if inp.anchor0 is not None:  # a part that turns about where it meets its anchor (a lid on its box)

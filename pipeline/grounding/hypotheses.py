@@ -25,7 +25,7 @@ from scipy.spatial.transform import Rotation
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import ball_centre
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import DEPTH_SIGMAS, View
+from pipeline.grounding.verify import View, depth_tolerance
 
 MAX_POINTS = 120  # per cloud: a coarse check needs the shape, not every point
 CHROMA_SIGMA = 0.08
@@ -209,7 +209,7 @@ def sweep_hypotheses(
     closeness0 = mask_closeness(view0.mask, sigma_px)
     closeness1 = mask_closeness(view1.mask, sigma_px)
     rotations = rotation_sweep(up)
-    tol = max(DEPTH_TOL_REL * size_m, DEPTH_SIGMAS * view1.depth_sigma_m)
+    tol = depth_tolerance(DEPTH_TOL_REL * size_m, view0, view1)
     scores, t = coarse_scores(rotations, view0, view1, closeness0, closeness1, K, tol)
     order = np.argsort(-scores)
     distinct = order[_distinct(rotations[order], SEED_SEPARATION_DEG, DISTINCT_PEAKS)]

@@ -16,14 +16,19 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.grounding.depth_align import DepthAlignment, DepthAlignmentError, fit_depth_alignment
+from pipeline.grounding.depth_align import (
+    EDGE_BAND_PX,
+    DepthAlignment,
+    DepthAlignmentError,
+    away_from_outline,
+    fit_depth_alignment,
+)
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.verify import View, chromaticity, make_view
 
 SENSOR_NOISE_REL = 0.0015  # a depth camera's per-pixel noise / depth: a model's is smoothed down to it ...
 MAX_SMOOTH_PX = 3.0  # ... over at most this many pixels (sigma); under MIN_SMOOTH_PX it is left as it is
 MIN_SMOOTH_PX = 0.7
-EDGE_BAND_PX = 4  # background pixels this close to an object are not used to judge the goal depth (bled edges)
 COLOUR_SAMPLES = 20000
 COLOUR_FIT_ROUNDS = 3  # least squares, then refits without the pixels that changed (shadows, the object's old place)
 
@@ -68,10 +73,7 @@ def pixel_noise(depth: np.ndarray, where: np.ndarray) -> float:
     known = where & np.isfinite(depth)
     if known.sum() < 50:
         return 0.0
-    filled = np.where(known, depth, 0.0).astype(np.float32)
-    w = cv2.GaussianBlur(known.astype(np.float32), (0, 0), 2.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        local = cv2.GaussianBlur(filled, (0, 0), 2.0) / w
+    local = smooth_inside(depth, known, 2.0)
     rel = (depth[known] - local[known]) / depth[known]
     return float(1.4826 * np.median(np.abs(rel - np.median(rel))))
 
@@ -106,12 +108,6 @@ def smooth_inside(depth: np.ndarray, mask: np.ndarray, sigma_px: float) -> np.nd
     with np.errstate(invalid="ignore", divide="ignore"):
         smooth = num / den
     return np.where(inside, smooth, depth).astype(np.float32)
-
-
-def away_from_outline(mask: np.ndarray, px: int) -> np.ndarray:
-    """The mask without a band of `px` pixels along its outline."""
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * px + 1, 2 * px + 1))
-    return cv2.erode(mask.astype(np.uint8), kernel).astype(bool)
 
 
 def match_colours(rgb: np.ndarray, reference: np.ndarray, background: np.ndarray, seed: int = 0) -> np.ndarray:
@@ -153,10 +149,7 @@ class Prepared:
     valid1: np.ndarray
     size: float  # the object's extent [m]
     view0: View
-    view1: View
-    goal_noise_rel: float  # the goal depth's per-pixel noise / depth (0 when measured)
-    goal_smoothing_px: float  # the smoothing it took inside the object
-    goal_depth_sigma_m: float  # the standard error left in it, so smoothed (0 when measured)
+    view1: View  # its depth_sigma_m: the error left in the goal depth (0 when measured)
 
     @property
     def cloud0(self) -> np.ndarray:
@@ -172,12 +165,11 @@ def prepare(
     if isinstance(aligned, ObjectMotion):
         return aligned
     depth0, depth1, align = aligned
-    noise, sigma, error = 0.0, 0.0, 0.0
+    error = 0.0
     background = ~(inp.mask0 | inp.mask1)
     if not inp.depth1_measured:  # a model's depth
         clear = away_from_outline(background, EDGE_BAND_PX)
-        noise = pixel_noise(depth1, clear)
-        sigma = smoothing_px(noise)
+        sigma = smoothing_px(pixel_noise(depth1, clear))
         error = goal_depth_error(depth0, depth1, clear, sigma)
         if sigma > 0:
             depth1 = smooth_inside(depth1, inp.mask1, sigma)
@@ -198,4 +190,4 @@ def prepare(
     voxel = max(cfg.icp_voxel_m, size / 40)
     view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
     view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel, error)
-    return Prepared(depth0, depth1, align, points0, points1, valid0, valid1, size, view0, view1, noise, sigma, error)
+    return Prepared(depth0, depth1, align, points0, points1, valid0, valid1, size, view0, view1)

@@ -89,12 +89,17 @@ def _agreement(
     return agree / max(evidence, len(X) // 2, 1), evidence
 
 
+def depth_tolerance(tol_m: float, *views: View) -> float:
+    """`tol_m`, or DEPTH_SIGMAS standard errors of the views' depth where that is larger."""
+    return max(tol_m, DEPTH_SIGMAS * max(v.depth_sigma_m for v in views))
+
+
 def view_consistency(
     hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float, chroma_tol: float = 0.06
 ) -> float:
     """Mean agreement share (0..1) of initial -> goal and goal -> initial under the hypothesis; depths agree within
     `tol_m` or DEPTH_SIGMAS standard errors of the goal depth, whichever is larger."""
-    tol_m = max(tol_m, DEPTH_SIGMAS * max(initial.depth_sigma_m, goal.depth_sigma_m))
+    tol_m = depth_tolerance(tol_m, initial, goal)
     inverse = Similarity(1.0 / hypothesis.scale, hypothesis.R.T, -(hypothesis.R.T @ hypothesis.t) / hypothesis.scale)
     fwd, _ = _agreement(initial, goal, hypothesis, K, tol_m, chroma_tol)
     bwd, _ = _agreement(goal, initial, inverse, K, tol_m, chroma_tol)
