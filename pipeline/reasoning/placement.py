@@ -2,8 +2,9 @@
 sight, found from the depth frame alone.
 
 The offline editor asks for a spot in a relation to a reference ("behind the bowl"): candidates fan out from the
-ideal one (straight behind, just clear of the reference) to nearby directions and a little farther, and the first
-that passes every check is taken; when none does, the refusal says what stood in the way of each. A spot is
+ideal one (straight behind, just clear of the reference) to nearby directions and a little farther, then to the
+edges of the relation's quadrant (45 deg off), and the first that passes every check is taken; when none does,
+the refusal says what stood in the way of each. A spot is
   free       no other object's points (seen above the table) within the object's footprint plus a gap (a place:
              the disc of its radius, where the fingers open; a push's end: its own outline, and nothing on its way),
   supported  the table is under it (the depth there is the table's, not the floor's beyond its edge),
@@ -40,8 +41,10 @@ class PlacementConfig:
     gap_m: float = 0.02  # free table between the placed object and any other [m]
     pushed_gap_m: float = 0.01  # between a pushed object's outline and any other where it ends (no fingers beside)
     beside_gap_m: float = 0.04  # footprint to footprint when placed beside a reference, at first [m]
-    farther_m: tuple[float, ...] = (0.0, 0.02, 0.04)  # tried beyond that
-    turns_deg: tuple[float, ...] = (0.0, 15.0, -15.0, 30.0, -30.0)  # away from the relation's direction
+    farther_m: tuple[float, ...] = (0.0, 0.02, 0.04, 0.06)  # tried beyond that
+    turns_deg: tuple[float, ...] = (0.0, 15.0, -15.0, 30.0, -30.0)  # away from the relation's direction ...
+    # ... and, where none of those is free, the edges of the quadrant a person still calls "in front of" (clutter)
+    wide_turns_deg: tuple[float, ...] = (45.0, -45.0)
 
 
 class Table:
@@ -174,15 +177,17 @@ def spot_beside(
     first candidate that passes Table.problem, or None and why each failed ("what" names the request)."""
     cfg = table.config
     problems: Counter[str] = Counter()
-    for extra in cfg.farther_m:
-        for turn in cfg.turns_deg:
-            d = axis_rotation(table.plane.n, math.radians(turn)) @ direction
-            base = reach_along(reference, d, table.plane) + reach_along(target, -d, table.plane) + cfg.beside_gap_m
-            shift = reference.centre + d * (base + extra) - target.centre
-            problem = table.problem(target, shift)
-            if problem is None:
-                return shift, ""
-            problems[_short(problem)] += 1
+    tries = [
+        (extra, turn) for turns in (cfg.turns_deg, cfg.wide_turns_deg) for extra in cfg.farther_m for turn in turns
+    ]
+    for extra, turn in tries:
+        d = axis_rotation(table.plane.n, math.radians(turn)) @ direction
+        base = reach_along(reference, d, table.plane) + reach_along(target, -d, table.plane) + cfg.beside_gap_m
+        shift = reference.centre + d * (base + extra) - target.centre
+        problem = table.problem(target, shift)
+        if problem is None:
+            return shift, ""
+        problems[_short(problem)] += 1
     tried = sum(problems.values())
     why = ", ".join(f"{n} {p}" for p, n in problems.most_common())
     return None, f"no free spot {what}: {tried} spots tried ({why})"

@@ -72,10 +72,50 @@ def test_a_place_with_no_free_spot_is_refused_saying_why(sim_profile_with, tmp_p
     request = EditRequest(
         frame.rgb, "put the red block in front of the blue block", frame.depth, frame.intrinsics, frame.T_base_camera
     )
-    with pytest.raises(ProviderError, match=r"no free spot in front of the blue block: 15 spots tried \(15 out of"):
+    with pytest.raises(ProviderError, match=r"no free spot in front of the blue block: 28 spots tried \(28 out of"):
         editor.edit(request)
     unknown_reach = EditRequest(frame.rgb, request.prompt, frame.depth, frame.intrinsics)  # no T_base_camera
     assert editor.edit(unknown_reach).T_goal_init_camera is not None
+
+
+class _Crowded:
+    """A table on which only the spots at the given turns off the relation's direction are free."""
+
+    def __init__(self, free_turns_deg: set[float]) -> None:
+        from pipeline.reasoning.placement import PlacementConfig
+        from pipeline.reasoning.tabletop import Plane
+
+        self.config, self.plane, self.free = PlacementConfig(), Plane(np.array([0.0, 0.0, 1.0]), 0.0), free_turns_deg
+        self.tried: list[float] = []
+
+    def problem(self, target, shift: np.ndarray) -> str | None:
+        turn = round(float(np.degrees(np.arctan2(shift[1], shift[0]))))
+        self.tried.append(turn)
+        return None if turn in self.free else "too close to another object"
+
+
+def _flat_block(centre: tuple[float, float]):
+    from pipeline.reasoning.tabletop import Plane, footprint
+
+    corners = np.array([[centre[0] + x, centre[1] + y, 0.0] for x in (-0.02, 0.02) for y in (-0.02, 0.02)])
+    return footprint(corners, Plane(np.array([0.0, 0.0, 1.0]), 0.0))
+
+
+def test_a_spot_off_the_relations_edge_is_taken_only_when_all_nearer_its_direction_are_taken():
+    from pipeline.reasoning.placement import spot_beside
+
+    reference, target = _flat_block((0.0, 0.0)), _flat_block((0.0, 0.0))  # the target moves from the reference
+    direction = np.array([1.0, 0.0, 0.0])
+    table = _Crowded({45, -30})
+    shift, _ = spot_beside(table, target, reference, direction, "in front of the block")
+    assert shift is not None and round(float(np.degrees(np.arctan2(shift[1], shift[0])))) == -30
+    assert 45 not in table.tried  # straight on and 15-30 deg off come first, at every distance
+    table = _Crowded({45})
+    shift, _ = spot_beside(table, target, reference, direction, "in front of the block")
+    assert round(float(np.degrees(np.arctan2(shift[1], shift[0])))) == 45
+    assert set(table.tried[:20]) == {0, 15, -15, 30, -30}
+    shift, why = spot_beside(_Crowded(set()), target, reference, direction, "in front of the block")
+    assert shift is None and "28 spots tried (28 too close to another object)" in why
 
 
 def test_check_instruction_shows_the_grammar():
