@@ -18,7 +18,10 @@ The refusal: every pair's true motion and its twins under the true symmetry, han
 as its only hypotheses (ICP polish and view agreement, bench/true_motion.py), gets the score ground() refuses
 below (min_view_score); the report gives that distribution, the share of true motions the threshold would refuse,
 how many of our accepted answers are wrong (beyond 20 mm or 10 deg) and how many answers the agreement check
-refused.
+refused. Each of our failures is put down to a cause by the true motion's score: the score refuses the truth too
+(refused, the truth under the threshold), the score prefers a wrong motion (wrong, the truth scores no higher
+than the answer), the search missed it (wrong or refused while the truth scores higher and would pass), or another
+refusal (too few inliers, a residual, the depth fit).
 
 Timing: wall and CPU time per pair, for ours and the paper's recipe in the same run, and a fixed reference
 workload timed at the start and the end, so figures can be compared across loads (`ms / reference`).
@@ -219,7 +222,7 @@ def summarise(records: list[dict], threshold: float) -> dict:
         }
     true_scores = np.array([r["true_agreement"] for r in records])
     ours = [r["ours"] for r in records]
-    wrong = [o for o in ours if o["ok"] and (o["t_mm"] > WRONG_MM or o["r_deg"] > WRONG_DEG)]
+    wrong = [o for o in ours if _wrong(o)]
     out["true_motion"] = {
         "agreement_percentiles": {
             str(q): float(np.percentile(true_scores, q)) for q in (0, 1, 2, 5, 10, 25, 50, 75, 90, 100)
@@ -228,8 +231,29 @@ def summarise(records: list[dict], threshold: float) -> dict:
         "refused_fraction": float(np.mean(true_scores < threshold)),
         "wrong_answers_accepted": len(wrong),
         "refused_by_agreement": sum(1 for o in ours if not o["ok"] and "does not explain the images" in o["reason"]),
+        "failure_causes": failure_causes(records, threshold),
     }
     return out
+
+
+def _wrong(o: dict) -> bool:
+    return o["ok"] and (o["t_mm"] > WRONG_MM or o["r_deg"] > WRONG_DEG)
+
+
+def failure_causes(records: list[dict], threshold: float) -> dict[str, int]:
+    """Our failures (refused or wrong) by what the true motion's score says of them (module docstring)."""
+    causes = dict.fromkeys(("score_refuses_truth", "score_prefers_wrong", "search_missed", "other_refusal"), 0)
+    for r in records:
+        o, truth = r["ours"], r["true_agreement"]
+        if o["ok"] and not _wrong(o):
+            continue
+        if o["ok"]:
+            causes["search_missed" if truth > o["agreement"] else "score_prefers_wrong"] += 1
+        elif "does not explain the images" not in o["reason"]:
+            causes["other_refusal"] += 1
+        else:
+            causes["search_missed" if truth >= threshold else "score_refuses_truth"] += 1
+    return causes
 
 
 def breakdown(records: list[dict], key: str) -> dict:
@@ -289,6 +313,12 @@ def print_set(console: Console, name: str, records: list[dict], summary: dict) -
         f"threshold {tm['threshold']:.2f} refuses {tm['refused_fraction']:.1%} of true motions; "
         f"wrong answers accepted {tm['wrong_answers_accepted']}, answers refused by agreement "
         f"{tm['refused_by_agreement']}"
+    )
+    causes = tm["failure_causes"]
+    console.print(
+        f"our failures by cause: the score refuses the true motion too {causes['score_refuses_truth']}, prefers a "
+        f"wrong motion {causes['score_prefers_wrong']}; the search missed a motion that scores higher "
+        f"{causes['search_missed']}; other refusals {causes['other_refusal']}"
     )
 
 

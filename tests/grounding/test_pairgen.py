@@ -153,3 +153,31 @@ def test_the_bench_tells_the_motion_kind_the_generator_made():
     for index in (1, 9, 17):  # a cylinder slid, turned in place, tipped
         pair = make_pair(9001, index)
         assert motion_kind(pair.T_motion_camera, pair.T_base_camera, pair.centre_camera) == pair.motion_kind
+
+
+def test_the_bench_puts_each_failure_down_to_the_score_or_the_search():
+    """A failure the true motion's score would have avoided is the search's; one it shares is the score's."""
+    from bench.grounding import failure_causes
+
+    def record(ok: bool, truth: float, agreement: float = 0.0, t_mm: float = 1.0, reason: str = "") -> dict:
+        ours = {"ok": ok, "reason": reason, "t_mm": t_mm if ok else math.inf, "r_deg": 1.0 if ok else math.inf}
+        return {"ours": ours | ({"agreement": agreement} if ok else {}), "true_agreement": truth}
+
+    agreement = "the motion does not explain the images: view agreement 0.2 (need 0.4)"
+    records = [
+        record(True, 0.9, 0.8),  # right: no failure
+        record(True, 0.9, 0.8, t_mm=50.0),  # wrong, the truth scores higher: the search missed it
+        record(True, 0.6, 0.5, t_mm=50.0),
+        record(True, 0.5, 0.8, t_mm=50.0),  # wrong, the truth scores lower: the score prefers the wrong motion
+        record(True, 0.7, 0.7, t_mm=50.0),  # ... or no higher
+        record(False, 0.2, reason=agreement),  # refused and the truth would be refused too
+        record(False, 0.1, reason=agreement),
+        record(False, 0.6, reason=agreement),  # refused while the truth would pass: the search missed it
+        record(False, 0.6, reason="too few inliers: 3 of 90"),
+    ]
+    assert failure_causes(records, 0.4) == {
+        "score_refuses_truth": 2,
+        "score_prefers_wrong": 2,
+        "search_missed": 3,
+        "other_refusal": 1,
+    }
