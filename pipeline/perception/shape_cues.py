@@ -37,7 +37,12 @@ NOTCH_SHARE = 0.15  # notches narrower than this share of a region's smaller ext
 # region too dark to read shading from (median below DARK_VALUE: a black can is level within quantisation).
 LEVEL_STEP, LEVEL_MIN_LEVELS, RAMP_RATIO = 0.02, 2, 1.5
 CLIPPED, DARK_VALUE = 250, 60
-MIN_UNCLIPPED = 0.5  # the shading is read when at least this share of the region's inside is unclipped
+MIN_UNCLIPPED = 0.5  # the shading is read when at least this share of the region's inside is unclipped ...
+# ... or, from as little as PARTLY_UNCLIPPED of it, when what is left shows a curved surface: a light can lying in the
+# light is clipped along its side but for a band that ramps (a box's faces do not), while a level remainder says
+# nothing (a standing can whose side is clipped shows its level top); such a remainder is read from twice
+# MIN_SHADED_PX pixels, since the clip's blurred edge ramps too and makes most of a small one (a pale block's)
+PARTLY_UNCLIPPED, CURVED_RAMP = 0.15, 0.35
 MIN_SHADED_PX = 40
 
 
@@ -97,18 +102,22 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
 
 def _shading(mask: np.ndarray, rgb: np.ndarray) -> dict[str, float | None]:
     """Shares of the region's readable inside (5x5 windows within it, not clipped) shaded level, and on a ramp;
-    None when too little of it is readable (a pale can lying in the light, its side clipped but for a sliver)."""
+    None when too little of it is readable (a pale can lying in the light, its side clipped but for a sliver), or
+    when a clipped region's remainder shows no curve (PARTLY_UNCLIPPED)."""
     value = np.ascontiguousarray(rgb.max(axis=2))
     k3, k5 = np.ones((3, 3), np.uint8), np.ones((5, 5), np.uint8)
     within = cv2.erode(mask.astype(np.uint8), k5).astype(bool)
     inside = within & (value < CLIPPED)
-    unreadable = inside.sum() < max(MIN_SHADED_PX, MIN_UNCLIPPED * within.sum())
-    if unreadable or np.median(value[mask]) < DARK_VALUE:
-        return {"level_share": None, "ramp_share": None}
+    unknown = {"level_share": None, "ramp_share": None}
+    if inside.sum() < max(MIN_SHADED_PX, PARTLY_UNCLIPPED * within.sum()) or np.median(value[mask]) < DARK_VALUE:
+        return unknown
     step3 = (cv2.dilate(value, k3).astype(np.float32) - cv2.erode(value, k3))[inside]
     step5 = (cv2.dilate(value, k5).astype(np.float32) - cv2.erode(value, k5))[inside]
     level = step3 <= np.maximum(LEVEL_MIN_LEVELS, LEVEL_STEP * value[inside])
     ramp = ~level & (step5 >= RAMP_RATIO * step3)
+    partly = inside.sum() < MIN_UNCLIPPED * within.sum()
+    if partly and (ramp.mean() < CURVED_RAMP or inside.sum() < 2 * MIN_SHADED_PX):
+        return unknown
     return {"level_share": float(level.mean()), "ramp_share": float(ramp.mean())}
 
 
