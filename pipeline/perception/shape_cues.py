@@ -218,6 +218,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     # can a level top above a side shaded across
     no_level_face = _shaded(c.level_share, 0.0, 0.1, 0.1)
     curved = _shaded(c.ramp_share, 0.35, 1.0, 0.1)
+    shaded_round = 0.0 if c.ramp_share is None else _within(c.ramp_share, 0.6, 1.0, 0.1)  # ramps nearly all over
     standing_can = (
         _within(c.aspect, 0.45, 0.9, 0.1)
         * (0.0 if c.ramp_share is None else curved)
@@ -253,6 +254,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * (1.0 - curved if c.ramp_share is not None else 1.0)
         * (1.0 - plate_on_top),
         "lidded_box": hollow
+        * (1.0 - shaded_round)  # an open box's walls and floor are level faces
         * _within(c.corners, 0.0, 6.5, 1.5)
         * _within(c.ellipse_iou, 0.0, 0.9, 0.04)
         * (1.0 - round_body),
@@ -262,7 +264,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
             standing_can,  # upright, too small for its ends to look round
         )
         * _shaded(c.ramp_share, 0.2, 1.0, 0.1)  # a side shaded across, not level faces
-        * smooth,
+        * max(smooth, shaded_round),  # (a dark can's highlight band is edges inside, on a side that ramps)
         "bottle": necked * _within(c.elongation, 1.9, 4.5, 0.3),
     }
     # the tasks' objects; a speck (a screw) is nothing else, a bar with a handle (a brush) is no pan
@@ -281,7 +283,12 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * _within(c.edge_density, 2.5, inf, 0.6)
         * _within(c.aspect, 0.45, 0.82, 0.08)
         * _within(c.elongation, 1.3, 3.0, 0.1),
-        "dustpan": RESEMBLES * hollow * polygonal * _within(c.ellipse_iou, 0.0, 0.9, 0.04) * (1.0 - brush),
+        "dustpan": RESEMBLES
+        * hollow
+        * (1.0 - shaded_round)
+        * polygonal
+        * _within(c.ellipse_iou, 0.0, 0.9, 0.04)
+        * (1.0 - brush),
         "dish_rack": rack * polygonal * (1.0 - brush),
         "stand": RESEMBLES
         * polygonal
