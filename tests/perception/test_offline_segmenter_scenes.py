@@ -205,6 +205,31 @@ def _named(detections: list, truth: dict[str, np.ndarray]) -> dict:
     return {max(truth, key=lambda n: (truth[n] & d.mask).sum()): d for d in detections}
 
 
+def _placed_instances(
+    sim_profile_with, tmp_path, name: str, objects: list[dict], places
+) -> list[tuple[str, str, float]]:
+    """The segmenter's instances in a scene of these objects set at (x, y, yaw) exactly: for each, the object it
+    covers most, its kind and its overlap with that object."""
+    for o, (x, y, yaw) in zip(objects, places, strict=True):
+        o |= {"xy_m": [x, y], "yaw_deg": yaw}
+    path = tmp_path / f"{name}.yaml"
+    scene = {"name": name, "objects": objects, "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
+    path.write_text(yaml.safe_dump(scene))
+    _, camera = view(sim_profile_with, str(path))
+    with camera:
+        rgb, truth = camera.read().rgb, camera.object_masks()
+    out = []
+    for i in OfflineSegmenter().instances(rgb):
+        covered = max(truth, key=lambda n: (truth[n] & i.region.mask).sum())
+        out.append((covered, i.kind, iou(i.region.mask, truth[covered])))
+    return out
+
+
+def _kinds_of_the_objects(instances: list[tuple[str, str, float]]) -> dict[str, str]:
+    """The kind of each object an instance covers well (overlap above 0.8)."""
+    return {covered: kind for covered, kind, overlap in instances if overlap > 0.8}
+
+
 def test_small_blocks_balls_and_standing_cans_are_told_by_their_shading(sim_profile_with, tmp_path):
     """At 15-30 px across a block, a ball and a standing can have outlines too alike to be told by (a small block
     read as a ball, a can as a block); their shading tells them: a block is level faces, a ball has none, a can
@@ -222,20 +247,10 @@ def test_small_blocks_balls_and_standing_cans_are_told_by_their_shading(sim_prof
     places = ([0.6, -0.05, -50.0], [0.42, -0.14, 41.0], [0.45, -0.3, 0.0], [0.355, -0.09, 0.0], [0.25, 0.22, 0.0])
     places += ([0.55, 0.12, 0.0], [0.415, 0.255, 140.0])
     objects[-1]["lying"] = True  # in the light its side clips but for a sliver: too little shading to read
-    for o, (x, y, yaw) in zip(objects, places, strict=True):
-        o |= {"xy_m": [x, y], "yaw_deg": yaw}
-    path = tmp_path / "small.yaml"
-    scene = {"name": "small", "objects": objects, "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
-    _, camera = view(sim_profile_with, str(path))
-    with camera:
-        rgb, truth = camera.read().rgb, camera.object_masks()
-    kinds = {}
-    for i in OfflineSegmenter().instances(rgb):
-        name = max(truth, key=lambda n: (truth[n] & i.region.mask).sum())
-        assert iou(i.region.mask, truth[name]) > 0.8, name
-        kinds[name] = i.kind
-    assert kinds == {o["name"]: o["kind"] for o in objects}
+    instances = _placed_instances(sim_profile_with, tmp_path, "small", objects, places)
+    for covered, _, overlap in instances:
+        assert overlap > 0.8, covered
+    assert _kinds_of_the_objects(instances) == {o["name"]: o["kind"] for o in objects}
 
 
 def test_a_bottle_lying_behind_an_open_chest_is_a_bottle_not_the_chests_lid(sim_profile_with, tmp_path):
@@ -361,20 +376,8 @@ def test_light_cans_lying_in_the_light_are_cans_though_their_sides_clip(sim_prof
     ]
     places = ([0.525, -0.042, 77.5], [0.49, 0.19, -113.9], [0.353, -0.242, 85.9], [0.427, 0.044, -51.6])
     places += ([0.332, 0.147, -81.8], [0.26, 0.199, 157.1])
-    for o, (x, y, yaw) in zip(objects, places, strict=True):
-        o |= {"xy_m": [x, y], "yaw_deg": yaw}
-    path = tmp_path / "cans.yaml"
-    scene = {"name": "cans", "objects": objects, "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
-    _, camera = view(sim_profile_with, str(path))
-    with camera:
-        rgb, truth = camera.read().rgb, camera.object_masks()
-    kinds = {}
-    for i in OfflineSegmenter().instances(rgb):
-        name = max(truth, key=lambda n: (truth[n] & i.region.mask).sum())
-        if iou(i.region.mask, truth[name]) > 0.8:
-            kinds[name] = i.kind
-    assert kinds == {o["name"]: o["kind"] for o in objects}
+    instances = _placed_instances(sim_profile_with, tmp_path, "cans", objects, places)
+    assert _kinds_of_the_objects(instances) == {o["name"]: o["kind"] for o in objects}
 
 
 def test_dark_cans_lying_in_the_arms_shadow_are_cans_not_open_chests(sim_profile_with, tmp_path):
@@ -385,17 +388,6 @@ def test_dark_cans_lying_in_the_arms_shadow_are_cans_not_open_chests(sim_profile
         can | {"name": "dark_green_can", "color": "dark_green", "radius_m": 0.024, "height_m": 0.106},
         can | {"name": "dark_yellow_can", "color": "dark_yellow", "radius_m": 0.027, "height_m": 0.111},
     ]
-    for o, (x, y, yaw) in zip(objects, ([0.3165, 0.1425, -89.9], [0.3524, 0.2914, -104.3]), strict=True):
-        o |= {"xy_m": [x, y], "yaw_deg": yaw}
-    path = tmp_path / "dark_cans.yaml"
-    scene = {"name": "dark_cans", "objects": objects, "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
-    _, camera = view(sim_profile_with, str(path))
-    with camera:
-        rgb, truth = camera.read().rgb, camera.object_masks()
-    kinds = {}
-    for i in OfflineSegmenter().instances(rgb):
-        name = max(truth, key=lambda n: (truth[n] & i.region.mask).sum())
-        if iou(i.region.mask, truth[name]) > 0.8:
-            kinds[name] = i.kind
-    assert kinds == {"dark_green_can": "cylinder", "dark_yellow_can": "cylinder"}
+    places = ([0.3165, 0.1425, -89.9], [0.3524, 0.2914, -104.3])
+    instances = _placed_instances(sim_profile_with, tmp_path, "dark_cans", objects, places)
+    assert _kinds_of_the_objects(instances) == {"dark_green_can": "cylinder", "dark_yellow_can": "cylinder"}
