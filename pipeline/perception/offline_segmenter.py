@@ -8,7 +8,8 @@ each region is of the kind its silhouette and inner edges fit best (shape_cues.p
 regions of that colour; a shape word keeps those classified as one of its kinds ("box" is any box, a lidded one
 too; "block" and "cube" only a plain one), and with a colour word, when none of that colour is classified so,
 those of that colour that fit the shape best (at least loosely; when none does, every one of that colour but
-those surely of another kind: the colour decides and the shape only ranks). A shade word (dark, light) keeps,
+those surely of another kind, and not of one it looks like with a part unseen: the colour decides and the shape
+only ranks). A shade word (dark, light) keeps,
 among several of the colour, the darker or paler ones; white stands for gray and gray for white when nothing is
 named so (a white lid in the shade, a gray one in the light). A lid of another colour is a part of its box, not an
 object of its own. A shape word alone keeps the regions of its kinds (when there is none, those fitting it well,
@@ -95,6 +96,9 @@ FRAGMENT_AREA_FRAC = 2 * SPECK_AREA_FRAC  # a region this small of the colour is
 CONFIDENT_KIND = 0.8  # a region scoring this for some kind is an object of that kind, not a pile
 # kinds one is read as where part of it does not show: a pan whose handle is washed out or hidden is a shallow bowl
 LOOK_ALIKE: dict[str, frozenset[str]] = {"pan": frozenset({"bowl"}), "bowl": frozenset({"pan"})}
+# ... and, only where a colour word has found it, a bottle whose neck reads apart (an edited goal drawn with a seam
+# below the neck) is a can: by shape alone a can-like piece (a pan's washed-out handle) would be taken for a bottle
+BODY_APART: dict[str, frozenset[str]] = {"bottle": frozenset({"cylinder"})}
 SIZE_KINDS = frozenset({"screw"})  # kinds told by size alone (shape_cues: a speck)
 
 
@@ -242,8 +246,7 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
             found = exact
         elif want.colour is None:  # the shape alone decides: a region that fits it well, if none is of its kind,
             fits = [i for i in found if fit[id(i)] >= max(SHAPE_ONLY_FIT, best - RANK_MARGIN)]
-            alike = set().union(*(LOOK_ALIKE.get(k, ()) for k in kinds)) - kinds
-            found = fits or [i for i in found if i.kind in alike]  # else one of a kind it looks like
+            found = fits or [i for i in found if i.kind in _look_alike(kinds, LOOK_ALIKE)]  # else a look-alike
         elif best >= loose:  # the colour decides; the shape ranks: the best fits (a loose bound) ...
             found = [i for i in found if fit[id(i)] >= max(loose, best - RANK_MARGIN)]
         else:  # ... or all of that colour but those surely of another kind (a chest is no block)
@@ -253,11 +256,20 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
     return sorted(found, key=lambda i: (-_score(i, want), -i.region.area))
 
 
+def _look_alike(kinds: frozenset[str], table: dict[str, frozenset[str]]) -> set[str]:
+    """The other kinds an object of these kinds reads as with a part of it unseen (LOOK_ALIKE, BODY_APART)."""
+    return set().union(*(table.get(k, ()) for k in kinds)) - kinds
+
+
 def _surely_other(instance: Instance, kinds: frozenset[str]) -> bool:
-    """Whether a region is confidently of a kind the phrase does not name. A speck's kind is told by its size
-    alone: a far or half-hidden object of any kind reads as one, so a speck is never surely another kind."""
+    """Whether a region is confidently of a kind the phrase does not name, nor one that kind reads as with a part
+    unseen (a bottle's body apart from its neck is surely a can, and may still be the bottle). A speck's kind is
+    told by its size alone: a far or half-hidden object of any kind reads as one, so a speck is never surely
+    another kind."""
     kind = instance.kind
-    return kind not in kinds and kind not in SIZE_KINDS and instance.scores.get(kind, 0.0) >= CONFIDENT_KIND
+    if kind in kinds or kind in SIZE_KINDS or kind in _look_alike(kinds, LOOK_ALIKE | BODY_APART):
+        return False
+    return instance.scores.get(kind, 0.0) >= CONFIDENT_KIND
 
 
 def _piles(rgb: np.ndarray, others: list[Instance], want: ObjectPhrase) -> list[Instance]:
