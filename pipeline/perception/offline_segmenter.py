@@ -25,7 +25,7 @@ the box's region (faces are the pieces between the edges inside it). With no che
 with a lid the largest is the chest (shut, it looks like a box, and outsizes a block of a paler shade beside it).
 Limits, by design of a no-model backend: brown is not separable from the wooden table, regions touching the
 image border are ignored (the floor, the robot base), touching objects of one colour and one saturation are one
-region, and a white scale has no plate of another shade to be told by.
+region, and a white scale (plate and base clipped alike) is told only by its plate's rim around a lit core.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ import numpy as np
 
 from pipeline.perception.colour_regions import ACHROMATIC, CHROMATIC, Region, hsv, regions
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, box_of, check_rgb
-from pipeline.perception.shape_cues import SPECK_AREA_FRAC, classify, cues
+from pipeline.perception.shape_cues import SPECK_AREA_FRAC, classify, cues, two_shades
 
 COLOUR_WORDS: dict[str, str] = {c: c for c in (*CHROMATIC, *ACHROMATIC)} | {"grey": "gray", "violet": "purple"}
 # what a shape word names: kinds of the simulator's objects
@@ -224,9 +224,10 @@ class OfflineSegmenter(Segmenter):
         out = []
         h, s, v = hsv(rgb)
         for region in regions(rgb, min_area):
-            kind, scores = classify(region.mask, rgb, region.colour)
-            if kind == "platform" and region.colour == "white":  # a light plate on a gray base (shape_cues): a
-                region = Region(region.mask, "gray")  # scale is named by its base, every scale's plate is light
+            shape = cues(region.mask, rgb)
+            kind, scores = classify(shape, region.colour)
+            if kind == "platform" and region.colour == "white" and two_shades(shape):  # a light plate on a gray
+                region = Region(region.mask, "gray")  # base: a scale is named by its base, every scale's plate is light
             m = region.mask
             out.append(Instance(region, kind, scores, (h[m], s[m], v[m])))
         return out

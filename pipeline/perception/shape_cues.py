@@ -27,6 +27,11 @@ PLATE_MIN_VALUE = 0.4  # ... and not dark, in the light or in a shadow (where it
 # darker shade: a white box's or chest's shaded faces keep at least 0.45 of its lit top's value in the sim's
 # light, a gray base under a light plate at most 0.35
 TWO_TONE_MAX_RATIO = 0.38
+# a white scale in the light has its plate and base both clipped white: it is told by the plate's rim (edges inside,
+# as many as an open chest's) around a core that stays lit (little of the region's core in shade, where an open
+# chest's inner walls and floor, and a shut one's tall sides, are); the core is the region eroded by CORE_SHARE of
+# its smaller extent, a pixel in shade below SHADE_OF_TOP of the region's 90th-percentile value
+CORE_SHARE, SHADE_OF_TOP = 0.15, 0.8
 BOX_MAX_ELONGATION = 2.6  # a block's side seen square-on: the sim's boxes are up to 2.5 times as tall as wide
 RESEMBLES = 0.9  # a kind that only resembles an older one (dustpan, rack, stand) scores at most this
 NOTCH_SHARE = 0.15  # notches narrower than this share of a region's smaller extent are closed (a rack's tines)
@@ -58,6 +63,7 @@ class Cues:
     edge_density: float  # edges inside the region per sqrt(area)
     light_plate: float  # fraction of neutral pixels, lit or shaded (a coloured scale's weighing plate)
     shade_ratio: float  # value's 10th percentile over its 90th: the darkest faces against the brightest
+    core_shade: float  # share of the region's core in shade (CORE_SHARE, SHADE_OF_TOP): inner walls, tall sides
     body_ellipse_iou: float  # ellipse_iou of the region opened by a disc a quarter of its width (thin parts cut)
     body_share: float  # the opened region's area / the region's
     area_frac: float  # the region's share of the image
@@ -93,6 +99,7 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
         edge_density=float((edges & inner).sum() / max(np.sqrt(area), 1.0)),
         light_plate=float(((sat[mask] < PLATE_MAX_SATURATION) & (val[mask] > PLATE_MIN_VALUE)).mean()),
         shade_ratio=float(np.percentile(val[mask], 10) / max(np.percentile(val[mask], 90), 1e-6)),
+        core_shade=_core_shade(mask, val, min(np.ptp(u), np.ptp(v)) + 1),
         **_body(m, np.ptp(u) + 1, np.ptp(v) + 1, area),
         area_frac=area / mask.size,
         wide_elongation=_wide_elongation(u, v),
@@ -119,6 +126,16 @@ def _shading(mask: np.ndarray, rgb: np.ndarray) -> dict[str, float | None]:
     if partly and (ramp.mean() < CURVED_RAMP or inside.sum() < 2 * MIN_SHADED_PX):
         return unknown
     return {"level_share": float(level.mean()), "ramp_share": float(ramp.mean())}
+
+
+def _core_shade(mask: np.ndarray, val: np.ndarray, extent: int) -> float:
+    """Share of the region's core (eroded by CORE_SHARE of its smaller extent) in shade: below SHADE_OF_TOP of the
+    region's 90th-percentile value, in patches of at least 3x3 pixels (a plate's rim line is no shade)."""
+    k = max(3, int(CORE_SHARE * extent) | 1)
+    core = cv2.erode(mask.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))).astype(bool)
+    shade = ((val < SHADE_OF_TOP * np.percentile(val[mask], 90)) & mask).astype(np.uint8)
+    shade = cv2.morphologyEx(shade, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
+    return float((shade & core).sum() / max(core.sum(), 1))
 
 
 def _ellipse_iou(m: np.ndarray) -> float:
@@ -196,12 +213,19 @@ def _shaded(share: float | None, lo: float, hi: float, margin: float) -> float:
 def _plate_on_top(c: Cues, colour: str) -> float:
     """How much a region looks like a scale's light plate on its base: a coloured (or black) region holding a
     neutral plate, or a white-named neutral region of two shades (a light plate on a darker gray base). A gray-named
-    region is dark all over (no light plate); a white scale has no plate of another shade to be told by."""
+    region is dark all over (no light plate); a white scale, plate and base clipped alike, is told by its plate's
+    rim instead (scores)."""
     if colour == "gray":
         return 0.0
     if colour == "white":
         return _within(c.shade_ratio, 0.0, TWO_TONE_MAX_RATIO, 0.06)
     return _within(c.light_plate, 0.15, 1.0, 0.1)
+
+
+def two_shades(c: Cues) -> bool:
+    """Whether a white-named region is of two shades: a scale's light plate on a darker gray base (named by its
+    base), not a white scale whose plate and base both clip white."""
+    return _plate_on_top(c, "white") > 0.0
 
 
 def scores(c: Cues, colour: str) -> dict[str, float]:
@@ -211,6 +235,13 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     hollow = _within(c.edge_density, 3.0, inf, 0.8)  # a rim and inner walls inside
     round_outline = _within(c.corners, 7.5, inf, 1.0)
     plate_on_top = _plate_on_top(c, colour)
+    # a white scale: a plate's rim inside, around a core that stays lit
+    plate_set_in = (
+        float(colour == "white")
+        * _within(c.edge_density, 2.7, inf, 0.2)
+        * _within(c.core_shade, 0.0, 0.17, 0.05)
+        * _within(c.corners, 0.0, 6.0, 1.0)
+    )
     body = _within(c.end_width, 0.8, 1.0, 0.1)  # as wide at its ends as in its middle
     necked = _within(c.end_width, 0.0, 0.66, 0.1) * _within(c.end_width, 0.32, 1.0, 0.1)
     round_body = _within(c.body_ellipse_iou, 0.94, 1.0, 0.02)  # an ellipse once thin parts are cut off
@@ -245,7 +276,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
             _within(c.end_width, 0.0, 0.3, 0.1) * _within(c.ellipse_iou, 0.0, 0.8, 0.08),
             round_body * _within(c.body_share, 0.0, 0.96, 0.02) * _within(c.ellipse_iou, 0.0, 0.85, 0.04),
         ),
-        "platform": plate_on_top * _within(c.corners, 0.0, 6.0, 1.0) * (1.0 - 0.5 * round_outline),
+        "platform": max(plate_on_top * _within(c.corners, 0.0, 6.0, 1.0) * (1.0 - 0.5 * round_outline), plate_set_in),
         "box": _within(c.corners, 0.0, 6.5, 2.5)
         * _within(c.ellipse_iou, 0.0, 0.94, 0.03)
         * _within(c.edge_density, 0.0, 2.2, 0.8)
@@ -255,6 +286,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * (1.0 - plate_on_top),
         "lidded_box": hollow
         * (1.0 - shaded_round)  # an open box's walls and floor are level faces
+        * (1.0 - plate_set_in)  # and in the shade
         * _within(c.corners, 0.0, 6.5, 1.5)
         * _within(c.ellipse_iou, 0.0, 0.9, 0.04)
         * (1.0 - round_body),
@@ -286,6 +318,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         "dustpan": RESEMBLES
         * hollow
         * (1.0 - shaded_round)
+        * (1.0 - plate_set_in)
         * polygonal
         * _within(c.ellipse_iou, 0.0, 0.9, 0.04)
         * (1.0 - brush),
@@ -303,8 +336,8 @@ UNKNOWN = "unknown"  # a region no kind fits (an inpainting smear, a fragment)
 MIN_KIND_SCORE = 0.1
 
 
-def classify(mask: np.ndarray, rgb: np.ndarray, colour: str) -> tuple[str, dict[str, float]]:
+def classify(c: Cues, colour: str) -> tuple[str, dict[str, float]]:
     """The best-scoring kind of a region (UNKNOWN when none scores MIN_KIND_SCORE), and every kind's score."""
-    s = scores(cues(mask, rgb), colour)
+    s = scores(c, colour)
     best = max(s, key=s.get)
     return (best if s[best] >= MIN_KIND_SCORE else UNKNOWN), s

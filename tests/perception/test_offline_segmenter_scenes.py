@@ -414,3 +414,28 @@ def test_dark_cans_lying_in_the_arms_shadow_are_cans_not_open_chests(sim_profile
     places = ([0.3165, 0.1425, -89.9], [0.3524, 0.2914, -104.3])
     instances = _placed_instances(sim_profile_with, tmp_path, "dark_cans", objects, places)
     assert _kinds_of_the_objects(instances) == {"dark_green_can": "cylinder", "dark_yellow_can": "cylinder"}
+
+
+def test_white_scales_in_the_light_are_scales_beside_a_white_open_chest_and_block(sim_profile_with, tmp_path):
+    """A white scale's plate and base both clip white: no plate of another shade tells it. Its plate's rim makes as
+    many edges inside it as an open chest's walls do, but its core stays lit where a chest's inner walls and floor
+    are in shade (generated scenes 8078, 10137, 10294, where these scales read as open chests)."""
+    scale = {"kind": "platform", "color": "white"}
+    objects = [
+        scale | {"name": "scale_a", "size_m": [0.103, 0.096, 0.036]},
+        scale | {"name": "scale_b", "size_m": [0.098, 0.108, 0.032]},
+        scale | {"name": "scale_c", "size_m": [0.114, 0.108, 0.021]},
+        {"name": "chest", "kind": "lidded_box", "color": "white", "size_m": [0.12, 0.15, 0.06], "lid_open_deg": 95.0},
+        {"name": "block", "kind": "box", "color": "white", "size_m": [0.05, 0.05, 0.05]},
+    ]
+    places = ([0.41, 0.268, -13.2], [0.558, -0.045, 112.4], [0.513, -0.286, 143.3], [0.35, -0.3, 0.0])
+    places += ([0.34, -0.12, 20.0],)
+    instances = _placed_instances(sim_profile_with, tmp_path, "white_scales", objects, places)
+    assert _kinds_of_the_objects(instances) == {o["name"]: o["kind"] for o in objects}
+    # named by their own colour (not, as a light plate on a gray base is, by a base's), and no box
+    _, camera = view(sim_profile_with, str(tmp_path / "white_scales.yaml"))
+    with camera:
+        rgb, truth = camera.read().rgb, camera.object_masks()
+    seg = OfflineSegmenter()
+    assert sorted(_named(seg.segment(rgb, "the white scale"), truth)) == ["scale_a", "scale_b", "scale_c"]
+    assert sorted(_named(seg.segment(rgb, "the white box"), truth)) == ["block", "chest"]
