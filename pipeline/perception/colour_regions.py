@@ -47,6 +47,7 @@ BLACK_MIN_FRACTION = 0.05  # ... or this fraction of dark pixels (a black scale 
 # are split by saturation, which shading leaves alone, when its two modes are this far apart
 SPLIT_SATURATION_RATIO = 0.65
 PART_BORDER_FRACTION = 0.6  # an unsaturated region this much bordered by one region can be its lit face ...
+PLAIN_TINT = 0.035  # ... when its median saturation shows a hue this plainly, the hue of that region ...
 PALE_TINT, PALE_BORDER_FRACTION = 0.07, 0.3  # ... or this much when tinted this strongly (half the colour bound): the
 # lit part of a pale plate whose shaded part (a shadow across it, its rim) reads as the colour; a white object
 # under white light keeps its saturation near 0
@@ -230,16 +231,27 @@ def _lit_face_of(ids: np.ndarray, names: list[str], i: int, hue: np.ndarray, sat
     with its hue (a light pink pan's lit floor; a third of its outline is enough when the tint is plain, a light
     pink plate's top beside its shaded part), or washed out to full scale all over and no larger than the
     coloured faces around it (a pink box's top in the light; a white object has shaded faces in its own region,
-    a white plate under a red block is far larger than the block)."""
+    a white plate under a red block is far larger than the block). A face plainly tinted with another hue is
+    the face of a region of that hue beside it, if any (a light pink bottle's cap in the light against a cyan
+    pan)."""
     other, border = _bordering(ids, i, names)
     if other == 0 or names[other] not in HUES:
         return 0
     own = ids == i
     lit = np.median(val[own]) >= LIT_FACE_MIN_VALUE  # a face in the light is bright: a gray block in a bowl is not
-    tint = np.median(sat[own]) if lit and hue_distance(np.median(hue[own]), HUES[names[other]]) <= 30.0 else 0.0
-    if (tint >= 0.035 and border >= PART_BORDER_FRACTION) or (tint >= PALE_TINT and border >= PALE_BORDER_FRACTION):
+    saturation = np.median(sat[own])
+    own_hue = hue_distance(np.median(hue[own]), HUES[names[other]]) <= 30.0
+    tint = saturation if lit and own_hue else 0.0
+    if (tint >= PLAIN_TINT and border >= PART_BORDER_FRACTION) or (
+        tint >= PALE_TINT and border >= PALE_BORDER_FRACTION
+    ):
         return other
     ring = cv2.dilate(own.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    if saturation >= PLAIN_TINT and not own_hue:
+        tinted = min(HUES, key=lambda c: hue_distance(np.median(hue[own]), HUES[c]))
+        ks, counts = np.unique(ids[ring & ~own], return_counts=True)
+        theirs = [(c, int(k)) for k, c in zip(ks, counts, strict=True) if k > 0 and names[k] == tinted]
+        return max(theirs)[1] if lit and theirs else 0
     faces = np.isin(ids, [k for k in np.unique(ids[ring]) if k > 0 and names[k] == names[other]])
     washed_out = np.percentile(val[own], 10) >= 0.93 and own.sum() <= 1.5 * faces.sum()
     return other if washed_out and border >= 0.15 else 0
