@@ -153,12 +153,13 @@ def _brightness_split(comp: np.ndarray, val: np.ndarray) -> list[np.ndarray]:
     """An unsaturated region as its black part and the rest, when it holds both black and light pixels: a black
     ball on a white scale's plate, which touch. The parts are joined again where one is the other's weighing
     plate (a black scale's base under its light plate, see regions()). A region at the image border (the floor,
-    the robot) is left whole: it is no object."""
+    the robot) is no object, but a black object that meets it in the image is (a black pan whose handle touches
+    the gripper): its black part is kept apart, whatever else it holds."""
     h, w = comp.shape
     v, u = np.nonzero(comp)
-    if v.min() == 0 or u.min() == 0 or v.max() == h - 1 or u.max() == w - 1:
-        return [comp]
     dark, light = comp & (val <= SPLIT_BLACK_MAX), comp & (val >= SPLIT_LIGHT_MIN)
+    if v.min() == 0 or u.min() == 0 or v.max() == h - 1 or u.max() == w - 1:
+        return [comp & ~dark, dark]
     if dark.sum() < SPLIT_MIN_PX or light.sum() < SPLIT_MIN_PX:
         return [comp]
     return [dark, comp & ~dark]

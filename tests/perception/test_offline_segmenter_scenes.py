@@ -460,3 +460,16 @@ def test_a_pale_bottles_cap_in_the_light_is_the_bottles_not_the_pan_behind_it(si
     assert found["pan"].kind == "pan" and found["bottle"].kind == "bottle"
     assert (found["pan"].region.mask & truth["bottle"]).sum() < 20
     assert iou(found["bottle"].region.mask, truth["bottle"]) > 0.9
+
+
+@pytest.mark.parametrize(
+    ("radius_m", "height_m", "place"), [(0.085, 0.036, [0.337, 0.014, -145.8]), (0.092, 0.046, [0.29, 0.108, 44.8])]
+)
+def test_a_black_pan_that_meets_the_arm_in_the_image_is_found(sim_profile_with, tmp_path, radius_m, height_m, place):
+    """A black pan below the gripper: in the image its rim or handle touches the arm, and the unsaturated region
+    of arm, floor and pan reaches the image border (generated cases 5007 and 10125, where "the pan" matched no
+    object). The black part of such a region is an object of its own."""
+    pan = {"name": "pan", "kind": "pan", "color": "black", "radius_m": radius_m, "height_m": height_m}
+    rgb, truth = _placed_view(sim_profile_with, tmp_path, "black_pan", [pan], [place])
+    found = [i for i in OfflineSegmenter().instances(rgb) if iou(i.region.mask, truth["pan"]) > 0.9]
+    assert [(i.kind, i.region.colour) for i in found] == [("pan", "black")]
