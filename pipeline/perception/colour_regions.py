@@ -210,16 +210,18 @@ def _bordering(ids: np.ndarray, i: int, names: list[str] | None = None) -> tuple
     return int(values[k]), float(same / ring.sum())
 
 
-def _weighing_plate_base(ids: np.ndarray, i: int, val: np.ndarray, sat: np.ndarray) -> int:
-    """The base under a scale's weighing plate: component i is neutral and light, and the region bordering it
-    most is a thin strip below it spanning most of its width (the base's sides); else 0."""
+def _weighing_plate_base(ids: np.ndarray, names: list[str], i: int, val: np.ndarray, sat: np.ndarray) -> int:
+    """The base under a scale's weighing plate: component i is neutral and light, and the regions of the colour
+    bordering it most are a thin strip below it spanning most of its width (the base's sides, in pieces where
+    something in front hides part of them); else 0."""
     own = ids == i
     if np.median(sat[own]) > 0.03 or np.median(val[own]) < 0.6:
         return 0
-    other, border = _bordering(ids, i)
+    other, border = _bordering(ids, i, names)
     if other == 0 or border < 0.15:
         return 0
-    base = ids == other
+    ring = cv2.dilate(own.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool) & ~own
+    base = np.isin(ids, [k for k in np.unique(ids[ring]) if k > 0 and names[k] == names[other]])
     tv, tu = np.nonzero(own)
     bv, bu = np.nonzero(base)
     spans = np.ptp(bu) >= 0.8 * np.ptp(tu)
@@ -299,7 +301,7 @@ def regions(rgb: np.ndarray, min_area: int) -> list[Region]:
         if i > 0 and names[i] == "achromatic":
             j = (
                 _lit_face_of(ids, names, int(i), hue, sat, val)
-                or _weighing_plate_base(ids, int(i), val, sat)
+                or _weighing_plate_base(ids, names, int(i), val, sat)
                 or _same_surface_as(ids, names, int(i), hue, sat, val)
             )
             if j:  # the face joins its object, and so do the other faces of that colour around it

@@ -473,3 +473,16 @@ def test_a_black_pan_that_meets_the_arm_in_the_image_is_found(sim_profile_with, 
     rgb, truth = _placed_view(sim_profile_with, tmp_path, "black_pan", [pan], [place])
     found = [i for i in OfflineSegmenter().instances(rgb) if iou(i.region.mask, truth["pan"]) > 0.9]
     assert [(i.kind, i.region.colour) for i in found] == [("pan", "black")]
+
+
+def test_a_scale_whose_base_is_partly_hidden_is_a_scale(sim_profile_with, tmp_path):
+    """A can in front of a light pink scale hides the middle of the base's sides, which then read as two pieces,
+    neither spanning the white plate's width: the pieces together are the base (generated case 5002, where the
+    plate read as a white box and "the cube" matched it; 10158 alike)."""
+    objects = [
+        {"name": "scale", "kind": "platform", "color": "light_pink", "size_m": [0.092, 0.102, 0.032]},
+        {"name": "can", "kind": "cylinder", "color": "light_blue", "radius_m": 0.024, "height_m": 0.102},
+    ]
+    places = ([0.367, 0.047, 4.8], [0.508, 0.049, 0.0])
+    instances = _placed_instances(sim_profile_with, tmp_path, "hidden_base", objects, places)
+    assert _kinds_of_the_objects(instances) == {"scale": "platform", "can": "cylinder"}
