@@ -53,6 +53,7 @@ PALE_TINT, PALE_BORDER_FRACTION = 0.07, 0.3  # ... or this much when tinted this
 # under white light keeps its saturation near 0
 SPLIT_BLACK_MAX, SPLIT_LIGHT_MIN = 0.15, 0.55  # a black object's value (lit faces too) and a light one's
 SPLIT_MIN_PX = 30
+STRIP_THICKNESS = 0.7  # a scale's base sides: at most this thick (px per column) as its plate (0.2-0.57 seen)
 LIT_FACE_MIN_VALUE = 0.6  # an unsaturated region darker than this is no lit face of a coloured object
 # a pale surface whose saturation sits at MIN_SATURATION splits along a ragged line into a colour and white: the two
 # are one surface where the pixels on either side of the line differ by no more than this (no edge between them)
@@ -212,8 +213,9 @@ def _bordering(ids: np.ndarray, i: int, names: list[str] | None = None) -> tuple
 
 def _weighing_plate_base(ids: np.ndarray, names: list[str], i: int, val: np.ndarray, sat: np.ndarray) -> int:
     """The base under a scale's weighing plate: component i is neutral and light, and the regions of the colour
-    bordering it most are a thin strip below it spanning most of its width (the base's sides, in pieces where
-    something in front hides part of them); else 0."""
+    bordering it most are a strip below it spanning most of its width (the base's sides, in pieces where something
+    in front hides part of them), thinner than the plate (a scale is far lower than it is deep: a block or the
+    table behind a white object is not); else 0."""
     own = ids == i
     if np.median(sat[own]) > 0.03 or np.median(val[own]) < 0.6:
         return 0
@@ -225,7 +227,7 @@ def _weighing_plate_base(ids: np.ndarray, names: list[str], i: int, val: np.ndar
     tv, tu = np.nonzero(own)
     bv, bu = np.nonzero(base)
     spans = np.ptp(bu) >= 0.8 * np.ptp(tu)
-    thin = base.sum() <= 1.2 * own.sum()
+    thin = base.sum() / (np.ptp(bu) + 1) <= STRIP_THICKNESS * own.sum() / (np.ptp(tu) + 1)
     return other if spans and thin and bv.mean() > tv.mean() else 0
 
 

@@ -238,3 +238,23 @@ def test_a_white_plate_under_a_coloured_block_stays_white():
     img[plate & (np.arange(120)[:, None] < 56)] = pale(0.5, 0.8, 330.0)  # a pink slab across its far part
     colours = sorted(f.region.colour for f in OfflineSegmenter().instances(img))
     assert colours == ["pink", "white"]
+
+
+def plate_over(strip_px: int, cut: bool) -> np.ndarray:
+    """A white plate above a red strip `strip_px` tall spanning its width, cut in two by a blue can when `cut`."""
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    cv2.rectangle(img, (50, 40), (99, 63), (225, 225, 225), -1)  # the white plate, 24 px tall, not clipped
+    cv2.rectangle(img, (50, 64), (99, 63 + strip_px), (200, 30, 25), -1)  # red below it
+    if cut:
+        cv2.rectangle(img, (68, 64), (80, 100), (30, 60, 200), -1)  # a can in front of its middle
+    return img
+
+
+def test_a_scales_base_is_a_thin_strip_below_its_plate_even_in_pieces():
+    """A scale's base shows as a thin strip of its colour below the light plate; a can in front cuts it in pieces,
+    which together are still the base. A red block as thick as the plate below a white object is no base."""
+    seg = OfflineSegmenter()
+    cut = [(i.region.colour, i.kind) for i in seg.instances(plate_over(7, cut=True))]
+    assert ("red", "platform") in cut and not any(colour == "white" for colour, _ in cut)
+    thick = {i.region.colour for i in seg.instances(plate_over(24, cut=False))}
+    assert thick == {"white", "red"}
