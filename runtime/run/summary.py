@@ -187,6 +187,13 @@ class LaidCheckRecord(Section):
     error_m: float  # seen middle to the goal's, across the table
 
 
+class StoodCheckRecord(Section):
+    """A body of revolution stood up, judged by its axis when no registration relates its lying and standing views."""
+
+    tilt_deg: float  # its axis after execution off the goal's
+    error_m: float  # its axis after execution to the goal's, across the table
+
+
 class Verification(Section):
     ok: bool
     reason: str
@@ -195,6 +202,7 @@ class Verification(Section):
     lift: LiftCheckRecord | None = None  # a lift's rise
     lid_tilt_deg: float | None = None  # a close: the lid's seen face off the table's plane after execution
     laid: LaidCheckRecord | None = None  # a flat object laid on its face
+    stood: StoodCheckRecord | None = None  # a body of revolution stood up, judged by its axis
 
 
 class TaskTruthRecord(Section):

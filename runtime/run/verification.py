@@ -20,7 +20,7 @@ from pipeline.reasoning.checks import find_again, like_the_target
 from runtime.run.contact import COMES_TO_REST, PUTS_DOWN, instruction_action
 from runtime.run.context import RunContext
 from runtime.run.summary import AchievedRecord, MotionRecord, Verification
-from runtime.run.verify_task import base_points, verify_group, verify_laid, verify_lift
+from runtime.run.verify_task import base_points, verify_group, verify_laid, verify_lift, verify_stood
 
 CAMERA_STILL_MM, CAMERA_STILL_DEG = 2.0, 0.2  # verification needs both captures from one camera pose
 
@@ -93,6 +93,8 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         unmeasured = f"could not measure the achieved motion: {achieved.reason}"
         if closing and _lid_over_its_box(before, goal.mask_anchor, after, mask_after):
             return lid_shut(after, mask_after, None, cfg.verify_lid_shut_tol_deg, unmeasured)
+        if instruction_action(ctx.instruction) == "stand_up":
+            return verify_stood(ctx, after, mask_after, unmeasured)
         return Verification(ok=False, reason=unmeasured)
     comparison = compare(
         goal_R=ctx.motion.R,

@@ -10,6 +10,13 @@ Lift (the paper's "lifted clear"): the object is found again in the after captur
 hide part of it, so registering it against its first view is unreliable); it is lifted when its lowest seen
 point rose at least LIFT_CLEAR_M and its seen centre is within the position tolerance of where the goal puts it.
 
+Stood up (a bottle or can lying, stood on its base): its lying and standing views share little surface, and the
+registration between them can fail its view-agreement check after a good stand-up (a black bottle: too little
+shading to agree on). It is then judged by its axis: the axis of the body of revolution its seen points lie on,
+after execution, within the rotation tolerance of the goal's (the first axis turned by the goal's motion), and
+that axis's middle within the position tolerance of the goal's across the table (seen from another side, the
+middle moves along the axis, which stands upright).
+
 Laid flat (a plate taken out of a rack, let go on its edge to tip over onto its face): the camera first saw one
 face and now sees the other side of it, so no registration relates the two views. It is found again; it lies flat
 when its seen top is no higher above the table than its thinnest extent as first seen (plus LAID_TOL_M), and it
@@ -25,10 +32,11 @@ import math
 import numpy as np
 
 from drivers.types import RGBDFrame
+from pipeline.contact.symmetry import revolution_axis
 from pipeline.grounding.group import count_in_container
 from pipeline.perception.segmenter import Segmenter
 from runtime.run.context import RunContext
-from runtime.run.summary import GroupCountRecord, LaidCheckRecord, LiftCheckRecord, Verification
+from runtime.run.summary import GroupCountRecord, LaidCheckRecord, LiftCheckRecord, StoodCheckRecord, Verification
 from safety.geometry import transform_points
 
 REQUIRED_FRACTION = 0.8  # of the parts, inside the container (the paper's table sweeping: "swept into the dustpan")
@@ -146,3 +154,24 @@ def verify_laid(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Veri
     )
     record = LaidCheckRecord(top_m=top, thickness_m=thickness, error_m=error)
     return Verification(ok=ok, reason=("laid flat: " if ok else "not laid as asked: ") + reason, laid=record)
+
+
+def verify_stood(ctx: RunContext, after: RGBDFrame, mask_after: np.ndarray, unmeasured: str) -> Verification:
+    """A stand-up whose achieved motion could not be measured (`unmeasured` says why), judged by the body's axis."""
+    axis0 = revolution_axis(base_points(ctx.frame0, ctx.goal.mask_init))
+    axis1 = revolution_axis(base_points(after, mask_after))
+    if axis0 is None or axis1 is None:
+        return Verification(ok=False, reason=f"{unmeasured}; and no body of revolution's axis was found to judge by")
+    T = ctx.motion.T_base
+    goal_direction, goal_point = T[:3, :3] @ axis0.direction, T[:3, :3] @ axis0.point + T[:3, 3]
+    tilt = math.degrees(math.acos(min(1.0, abs(float(goal_direction @ axis1.direction)))))
+    error = float(np.linalg.norm(axis1.point[:2] - goal_point[:2]))
+    cfg = ctx.profile.runtime
+    ok = tilt <= cfg.verify_rotation_tol_deg and error <= cfg.verify_position_tol_m
+    reason = (
+        f"its axis {tilt:.0f} deg off the goal's (tolerance {cfg.verify_rotation_tol_deg:.0f}), "
+        f"{error * 1000:.0f} mm from it across the table (tolerance {cfg.verify_position_tol_m * 1000:.0f}); "
+        f"judged by the axis: {unmeasured}"
+    )
+    record = StoodCheckRecord(tilt_deg=tilt, error_m=error)
+    return Verification(ok=ok, reason=("stood up: " if ok else "not stood up as asked: ") + reason, stood=record)

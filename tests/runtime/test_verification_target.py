@@ -66,3 +66,52 @@ def test_a_white_can_on_a_scales_white_plate_is_found_among_what_changed(sim_pro
     assert seg.segment(after.rgb, "the white can", after.depth) == []  # merged with the plate
     (found,) = find_target_again(seg, after.rgb, "the white can", before.rgb, can_before.mask, after.depth)
     assert (found.mask & truth["can"]).sum() / (found.mask | truth["can"]).sum() > 0.6
+
+
+def _bottle_view(sim_profile_with, tmp_path, name: str, xy: tuple[float, float], lying: bool):
+    """A capture of a black bottle set at xy (lying along yaw -57 deg, or standing), its true mask and the pose of
+    its body of revolution (T_base_shape)."""
+    import yaml
+
+    from drivers.sim import SimCamera, SimWorld
+
+    bottle = {"name": "bottle", "kind": "bottle", "color": "black", "radius_m": 0.026, "height_m": 0.22}
+    bottle |= {"xy_m": list(xy), "yaw_deg": -57.0, "lying": lying}
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump({"name": name, "objects": [bottle], "randomise": {"xy_jitter_m": 0.0}}))
+    profile = sim_profile_with({"sim": {"scene": str(path)}})
+    world = SimWorld(profile.sim, profile.camera)
+    with SimCamera(world, seed=0) as camera:
+        frame = camera.read().with_extrinsics(camera.T_base_camera)
+        mask = camera.object_masks()["bottle"]
+    return profile, frame, mask, world.object_pose("bottle_shape")
+
+
+def test_a_stand_up_the_registration_cannot_measure_is_judged_by_the_bodys_axis(sim_profile_with, tmp_path):
+    """A black bottle lying, then standing: its two views share too little to register (generated case 5082 was
+    refused after a good stand-up). Its axis after execution is compared with the goal's: stood where the goal
+    puts it, it passes; stood 6 cm off the goal, or carried there still lying, it fails; the record says why."""
+    from types import SimpleNamespace
+
+    from runtime.run.verify_task import verify_stood
+
+    profile, lying, mask0, P0 = _bottle_view(sim_profile_with, tmp_path, "lying", (0.52, 0.06), lying=True)
+    _, standing, mask1, P1 = _bottle_view(sim_profile_with, tmp_path, "standing", (0.47, 0.02), lying=False)
+
+    def judged(after, mask_after, T_goal):
+        ctx = SimpleNamespace(
+            frame0=lying, goal=SimpleNamespace(mask_init=mask0), motion=SimpleNamespace(T_base=T_goal), profile=profile
+        )
+        return verify_stood(ctx, after, mask_after, "could not measure the achieved motion: (why)")
+
+    T_true = P1 @ np.linalg.inv(P0)
+    good = judged(standing, mask1, T_true)
+    assert good.ok and good.stood.tilt_deg < 5 and good.stood.error_m < 0.01, good.reason
+    assert good.reason.startswith("stood up: ") and "could not measure" in good.reason
+    T_off = T_true.copy()
+    T_off[:3, 3] += [0.06, 0.0, 0.0]
+    off = judged(standing, mask1, T_off)
+    assert not off.ok and 0.05 < off.stood.error_m < 0.07, off.reason
+    _, lying_there, mask_there, _ = _bottle_view(sim_profile_with, tmp_path, "there", (0.47, 0.02), lying=True)
+    still_lying = judged(lying_there, mask_there, T_true)  # carried where the goal is, but still on its side
+    assert not still_lying.ok and still_lying.stood.tilt_deg > 80, still_lying.reason
