@@ -6,7 +6,8 @@ in the arm's reach and the camera's view with their true footprints apart, and a
 (the seed picks it: placing on, in or beside, rotating, pushing, standing up, closing, or a sentence outside the
 offline grammar). `case.tasks` lists an instruction for every action the scene offers. The words are what a
 person would say (kinds.NOUN_KINDS), chosen so each phrase names exactly one object; whether a backend
-understands them is what the runs measure.
+understands them is what the runs measure. A task names only objects the camera shows (sight.py: most of their
+top in sight past the others; a block behind an open chest's lid is named by no task).
 
 `goalvla run --scene gen:SEED` runs the scene of `generate_case(SEED)`; `scene_for(sim)` resolves scene names.
 """
@@ -34,6 +35,7 @@ from drivers.sim.scene import (
     place,
     placed_footprint,
 )
+from drivers.sim.sight import share_in_sight
 
 GENERATED_PREFIX = "gen:"
 REACH_M = (0.30, 0.62)  # object centres from the base axis: grasps, lifts and the goals beside them stay in reach
@@ -41,6 +43,7 @@ BEARING_DEG = 42.0  # either side of straight ahead (+x)
 VIEW_MAX_X_M = 0.78  # the table edge of the camera's view (its lower image border) is at x = 0.84 m
 VIEW_MAX_Y_M = 0.62
 GAP_M = 0.03  # free table between footprints: room for the fingers
+MIN_IN_SIGHT = 0.5  # a task names an object only when the camera sees at least this share of its top
 PLACE_TRIES = 400
 # every named colour the camera shows as itself: not brown (the table's own wood) nor dark orange (brown too), nor
 # light orange (its lit faces come out yellow)
@@ -327,9 +330,15 @@ def _room_beside(scene: Scene, o: SceneObject, ref: SceneObject, relation: str, 
     return False
 
 
+def _in_sight(scene: Scene, o: SceneObject, camera: SimCameraConfig) -> bool:
+    """Whether the camera shows most of the object (a camera on the arm: taken as seen, its view moves)."""
+    return camera.mount != "world" or share_in_sight(scene, o.name, np.array(camera.position_m)) >= MIN_IN_SIGHT
+
+
 def _tasks_of(rng: np.random.Generator, scene: Scene, camera: SimCameraConfig) -> list[Task]:
-    """One task per action and object (and pair) the scene offers; phrases chosen at random among the unique."""
-    named = [o for o in scene.objects if phrases(scene, o.name)]
+    """One task per action and object (and pair) the scene offers, of the objects in sight; phrases chosen at
+    random among the unique."""
+    named = [o for o in scene.objects if phrases(scene, o.name) and _in_sight(scene, o, camera)]
     tasks: list[Task] = []
     for o in named:
         roles = _roles(o)

@@ -147,3 +147,37 @@ def test_an_open_lid_stays_where_it_was_left(scene, sim_profile_with):
     world.data.qpos[hinges] = math.radians(15.0)
     world.step(3.0)
     assert np.degrees(world.data.qpos[hinges]).max() < 1.0
+
+
+def test_an_object_the_camera_cannot_see_is_named_by_no_task(sim_profile_with, tmp_path):
+    """A block behind an open chest's lid, seen from the camera (generated case 5104 asked to push it: nothing can
+    find it). Its share in sight, from the objects' outlines alone, agrees with the rendered image, and no task
+    names it; a block beside the chest is in sight and named."""
+    import yaml
+
+    from drivers.sim import SimCamera, SimWorld
+    from drivers.sim.generate import MIN_IN_SIGHT, _tasks_of
+    from drivers.sim.scene import Scene
+    from drivers.sim.sight import share_in_sight
+
+    objects = [
+        {"name": "chest", "kind": "lidded_box", "color": "purple", "size_m": [0.115, 0.143, 0.063]},
+        {"name": "hidden", "kind": "box", "color": "yellow", "size_m": [0.048, 0.041, 0.043]},
+        {"name": "beside", "kind": "box", "color": "red", "size_m": [0.048, 0.05, 0.05]},
+    ]
+    for o, (x, y, yaw) in zip(objects, ([0.548, 0.052, 0.5], [0.363, 0.093, 157.0], [0.45, -0.2, 30.0]), strict=True):
+        o |= {"xy_m": [x, y], "yaw_deg": yaw}
+    path = tmp_path / "behind_lid.yaml"
+    path.write_text(yaml.safe_dump({"name": "behind_lid", "objects": objects, "randomise": {"xy_jitter_m": 0.0}}))
+    profile = sim_profile_with({"sim": {"scene": str(path)}})
+    with SimCamera(SimWorld(profile.sim, profile.camera)) as camera:
+        camera.read()
+        seen_px = {name: int(mask.sum()) for name, mask in camera.object_masks().items()}
+    scene = Scene.model_validate({"name": "behind_lid", "objects": objects})
+    eye = np.array(profile.camera.sim.position_m)
+    assert seen_px["hidden"] < 20 and share_in_sight(scene, "hidden", eye) < MIN_IN_SIGHT
+    assert seen_px["beside"] > 300 and share_in_sight(scene, "beside", eye) == 1.0
+    named = {
+        name for t in _tasks_of(np.random.default_rng(0), scene, profile.camera.sim) for name in (t.target, t.reference)
+    }
+    assert "beside" in named and "hidden" not in named
