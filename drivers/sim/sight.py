@@ -42,15 +42,19 @@ def prisms(o: SceneObject) -> list[Prism]:
     return out
 
 
+def _inward_normals(polygon: np.ndarray) -> np.ndarray:
+    """Each edge's normal pointing inside (counterclockwise: the inside is to the left of each edge)."""
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    return np.column_stack([-edges[:, 1], edges[:, 0]])
+
+
 def _crosses(a: np.ndarray, b: np.ndarray, prism: Prism) -> bool:
     """Whether the segment a-b (3D, table frame) passes through the prism (Liang-Barsky clipping)."""
     polygon, z0, z1 = prism
     d = b - a
     lo, hi = 1e-6, 1.0
     bounds = [(-d[2], a[2] - z0), (d[2], z1 - a[2])]  # p * t <= q for every half-space
-    edges = np.roll(polygon, -1, axis=0) - polygon
-    for p0, e in zip(polygon, edges, strict=True):
-        inward = np.array([-e[1], e[0]])  # counterclockwise: the inside is to the left of each edge
+    for p0, inward in zip(polygon, _inward_normals(polygon), strict=True):
         bounds.append((-(d[:2] @ inward), (a[:2] - p0) @ inward))
     for p, q in bounds:
         if abs(p) < 1e-12:
@@ -74,8 +78,7 @@ def share_in_sight(scene: Scene, name: str, camera_m: np.ndarray) -> float:
     lo, hi = polygon.min(axis=0), polygon.max(axis=0)
     u, v = np.meshgrid(np.linspace(0.1, 0.9, GRID), np.linspace(0.1, 0.9, GRID))
     xy = lo + np.column_stack([u.ravel(), v.ravel()]) * (hi - lo)
-    edges = np.roll(polygon, -1, axis=0) - polygon
-    inside = np.all([(xy - p0) @ np.array([-e[1], e[0]]) >= 0 for p0, e in zip(polygon, edges, strict=True)], axis=0)
+    inside = np.all(((xy[:, None, :] - polygon[None]) * _inward_normals(polygon)).sum(axis=2) >= 0, axis=1)
     points = np.column_stack([xy[inside], np.full(int(inside.sum()), top)])
     others = [p for x in scene.objects if x.name != name for p in prisms(x)]
     seen = [not any(_crosses(point, camera_m, prism) for prism in others) for point in points]

@@ -194,11 +194,20 @@ def _connected(mask: np.ndarray) -> list[np.ndarray]:
     return [comp == i for i in range(1, n)]
 
 
+def _around(mask: np.ndarray) -> np.ndarray:
+    """The 2-pixel ring around a mask."""
+    return cv2.dilate(mask.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool) & ~mask
+
+
+def _pieces_of(ids: np.ndarray, names: list[str], ring: np.ndarray, name: str) -> np.ndarray:
+    """The components of colour `name` that reach into `ring`, whole."""
+    return np.isin(ids, [k for k in np.unique(ids[ring]) if k > 0 and names[k] == name])
+
+
 def _bordering(ids: np.ndarray, i: int, names: list[str] | None = None) -> tuple[int, float]:
     """The id bordering component i most, and the fraction of i's outline it borders (with `names`: the
     fraction all components of that one's colour border)."""
-    own = ids == i
-    ring = cv2.dilate(own.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool) & ~own
+    ring = _around(ids == i)
     around = ids[ring]
     around = around[around > 0]
     if around.size == 0:
@@ -222,8 +231,7 @@ def _weighing_plate_base(ids: np.ndarray, names: list[str], i: int, val: np.ndar
     other, border = _bordering(ids, i, names)
     if other == 0 or border < 0.15:
         return 0
-    ring = cv2.dilate(own.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool) & ~own
-    base = np.isin(ids, [k for k in np.unique(ids[ring]) if k > 0 and names[k] == names[other]])
+    base = _pieces_of(ids, names, _around(own), names[other])
     tv, tu = np.nonzero(own)
     bv, bu = np.nonzero(base)
     spans = np.ptp(bu) >= 0.8 * np.ptp(tu)
@@ -244,20 +252,20 @@ def _lit_face_of(ids: np.ndarray, names: list[str], i: int, hue: np.ndarray, sat
         return 0
     own = ids == i
     lit = np.median(val[own]) >= LIT_FACE_MIN_VALUE  # a face in the light is bright: a gray block in a bowl is not
-    saturation = np.median(sat[own])
-    own_hue = hue_distance(np.median(hue[own]), HUES[names[other]]) <= 30.0
+    saturation, face_hue = np.median(sat[own]), np.median(hue[own])
+    own_hue = hue_distance(face_hue, HUES[names[other]]) <= 30.0
     tint = saturation if lit and own_hue else 0.0
     if (tint >= PLAIN_TINT and border >= PART_BORDER_FRACTION) or (
         tint >= PALE_TINT and border >= PALE_BORDER_FRACTION
     ):
         return other
-    ring = cv2.dilate(own.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    ring = _around(own)
     if saturation >= PLAIN_TINT and not own_hue:
-        tinted = min(HUES, key=lambda c: hue_distance(np.median(hue[own]), HUES[c]))
-        ks, counts = np.unique(ids[ring & ~own], return_counts=True)
+        tinted = min(HUES, key=lambda c: hue_distance(face_hue, HUES[c]))
+        ks, counts = np.unique(ids[ring], return_counts=True)
         theirs = [(c, int(k)) for k, c in zip(ks, counts, strict=True) if k > 0 and names[k] == tinted]
         return max(theirs)[1] if lit and theirs else 0
-    faces = np.isin(ids, [k for k in np.unique(ids[ring]) if k > 0 and names[k] == names[other]])
+    faces = _pieces_of(ids, names, ring, names[other])
     washed_out = np.percentile(val[own], 10) >= 0.93 and own.sum() <= 1.5 * faces.sum()
     return other if washed_out and border >= 0.15 else 0
 
@@ -307,10 +315,7 @@ def regions(rgb: np.ndarray, min_area: int) -> list[Region]:
                 or _same_surface_as(ids, names, int(i), hue, sat, val)
             )
             if j:  # the face joins its object, and so do the other faces of that colour around it
-                ring = cv2.dilate((ids == i).astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
-                for k in np.unique(ids[ring]):
-                    if k > 0 and names[k] == names[j]:
-                        ids[ids == k] = j
+                ids[_pieces_of(ids, names, _around(ids == i), names[j])] = j
                 ids[ids == i] = j
     h, w = ids.shape
     out: list[Region] = []

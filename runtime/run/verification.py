@@ -60,7 +60,8 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         )
     if goal.group_size is not None:  # several parts swept into a container: counted there
         return verify_group(ctx, after, segmenter)
-    if instruction_action(ctx.instruction) == "lift":  # held in the fingers: lifted clear, where the goal puts it
+    action = instruction_action(ctx.instruction)
+    if action == "lift":  # held in the fingers: lifted clear, where the goal puts it
         return verify_lift(ctx, after, segmenter)
     if ctx.contact is not None and ctx.contact.T_set is not None:  # tipped over onto its face: its other side shows
         return verify_laid(ctx, after, segmenter)
@@ -81,19 +82,19 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         config=ctx.profile.pipeline.grounding,
         expected=(ctx.motion.R, ctx.motion.t),
     )
-    achieved = _at_rest(achieved, instruction_action(ctx.instruction), before, goal.mask_init, after, mask_after)
+    achieved = _at_rest(achieved, action, before, goal.mask_init, after, mask_after)
     if achieved.registration is None:
         record = AchievedRecord(method="ball_centre", ball_centre_shift_m=achieved.t.tolist())
     else:
         record = AchievedRecord(method="registration", registration=MotionRecord.of(achieved.registration))
     ctx.record.summary.achieved_motion = record
     cfg = ctx.profile.runtime
-    closing = instruction_action(ctx.instruction) == "close"
+    closing = action == "close"
     if not achieved.ok:
         unmeasured = f"could not measure the achieved motion: {achieved.reason}"
         if closing and _lid_over_its_box(before, goal.mask_anchor, after, mask_after):
             return lid_shut(after, mask_after, None, cfg.verify_lid_shut_tol_deg, unmeasured)
-        if instruction_action(ctx.instruction) == "stand_up":
+        if action == "stand_up":
             return verify_stood(ctx, after, mask_after, unmeasured)
         return Verification(ok=False, reason=unmeasured)
     comparison = compare(
