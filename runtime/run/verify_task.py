@@ -15,7 +15,8 @@ registration between them can fail its view-agreement check after a good stand-u
 shading to agree on). It is then judged by its axis: the axis of the body of revolution its seen points lie on,
 after execution, within the rotation tolerance of the goal's (the first axis turned by the goal's motion), and
 that axis's middle within the position tolerance of the goal's across the table (seen from another side, the
-middle moves along the axis, which stands upright).
+middle moves along the axis, which stands upright), and a bottle's wide end (its base) where the goal puts it: an
+axis has no direction, so a bottle stood on its neck would otherwise pass.
 
 Laid flat (a plate taken out of a rack, let go on its edge to tip over onto its face): the camera first saw one
 face and now sees the other side of it, so no registration relates the two views. It is found again; it lies flat
@@ -34,6 +35,7 @@ import numpy as np
 from drivers.types import RGBDFrame
 from pipeline.contact.symmetry import revolution_axis
 from pipeline.grounding.group import count_in_container
+from pipeline.grounding.upright import wide_end
 from pipeline.perception.segmenter import Segmenter
 from runtime.run.context import RunContext
 from runtime.run.summary import GroupCountRecord, LaidCheckRecord, LiftCheckRecord, StoodCheckRecord, Verification
@@ -158,18 +160,21 @@ def verify_laid(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter) -> Veri
 
 def verify_stood(ctx: RunContext, after: RGBDFrame, mask_after: np.ndarray, unmeasured: str) -> Verification:
     """A stand-up whose achieved motion could not be measured (`unmeasured` says why), judged by the body's axis."""
-    axis0 = revolution_axis(base_points(ctx.frame0, ctx.goal.mask_init))
-    axis1 = revolution_axis(base_points(after, mask_after))
+    p0, p1 = base_points(ctx.frame0, ctx.goal.mask_init), base_points(after, mask_after)
+    axis0, axis1 = revolution_axis(p0), revolution_axis(p1)
     if axis0 is None or axis1 is None:
         return Verification(ok=False, reason=f"{unmeasured}; and no body of revolution's axis was found to judge by")
     T = ctx.motion.T_base
     goal_direction, goal_point = T[:3, :3] @ axis0.direction, T[:3, :3] @ axis0.point + T[:3, 3]
     tilt = math.degrees(math.acos(min(1.0, abs(float(goal_direction @ axis1.direction)))))
     error = float(np.linalg.norm(axis1.point[:2] - goal_point[:2]))
+    base0, base1 = wide_end(p0, axis0), wide_end(p1, axis1)  # a bottle's wide end; None: ends alike (a can)
+    ends_swapped = base0 is not None and base1 is not None and float((T[:3, :3] @ base0) @ base1) < 0
     cfg = ctx.profile.runtime
-    ok = tilt <= cfg.verify_rotation_tol_deg and error <= cfg.verify_position_tol_m
+    ok = tilt <= cfg.verify_rotation_tol_deg and error <= cfg.verify_position_tol_m and not ends_swapped
     reason = (
-        f"its axis {tilt:.0f} deg off the goal's (tolerance {cfg.verify_rotation_tol_deg:.0f}), "
+        ("it stands on the end the goal puts up; " if ends_swapped else "")
+        + f"its axis {tilt:.0f} deg off the goal's (tolerance {cfg.verify_rotation_tol_deg:.0f}), "
         f"{error * 1000:.0f} mm from it across the table (tolerance {cfg.verify_position_tol_m * 1000:.0f}); "
         f"judged by the axis: {unmeasured}"
     )

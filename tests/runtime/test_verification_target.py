@@ -87,22 +87,30 @@ def _bottle_view(sim_profile_with, tmp_path, name: str, xy: tuple[float, float],
     return profile, frame, mask, world.object_pose("bottle_shape")
 
 
-def test_a_stand_up_the_registration_cannot_measure_is_judged_by_the_bodys_axis(sim_profile_with, tmp_path):
-    """A black bottle lying, then standing: its two views share too little to register (generated case 5082 was
-    refused after a good stand-up). Its axis after execution is compared with the goal's: stood where the goal
-    puts it, it passes; stood 6 cm off the goal, or carried there still lying, it fails; the record says why."""
+def _judged_by_axis(profile, before, mask_before, T_goal, after, mask_after):
+    """verify_stood on a run that planned from `before` with the goal motion T_goal (base frame)."""
     from types import SimpleNamespace
 
     from runtime.run.verify_task import verify_stood
 
+    ctx = SimpleNamespace(
+        frame0=before,
+        goal=SimpleNamespace(mask_init=mask_before),
+        motion=SimpleNamespace(T_base=T_goal),
+        profile=profile,
+    )
+    return verify_stood(ctx, after, mask_after, "could not measure the achieved motion: (why)")
+
+
+def test_a_stand_up_the_registration_cannot_measure_is_judged_by_the_bodys_axis(sim_profile_with, tmp_path):
+    """A black bottle lying, then standing: its two views share too little to register (generated case 5082 was
+    refused after a good stand-up). Its axis after execution is compared with the goal's: stood where the goal
+    puts it, it passes; stood 6 cm off the goal, or carried there still lying, it fails; the record says why."""
     profile, lying, mask0, P0 = _bottle_view(sim_profile_with, tmp_path, "lying", (0.52, 0.06), lying=True)
     _, standing, mask1, P1 = _bottle_view(sim_profile_with, tmp_path, "standing", (0.47, 0.02), lying=False)
 
     def judged(after, mask_after, T_goal):
-        ctx = SimpleNamespace(
-            frame0=lying, goal=SimpleNamespace(mask_init=mask0), motion=SimpleNamespace(T_base=T_goal), profile=profile
-        )
-        return verify_stood(ctx, after, mask_after, "could not measure the achieved motion: (why)")
+        return _judged_by_axis(profile, lying, mask0, T_goal, after, mask_after)
 
     T_true = P1 @ np.linalg.inv(P0)
     good = judged(standing, mask1, T_true)
@@ -115,3 +123,18 @@ def test_a_stand_up_the_registration_cannot_measure_is_judged_by_the_bodys_axis(
     _, lying_there, mask_there, _ = _bottle_view(sim_profile_with, tmp_path, "there", (0.47, 0.02), lying=True)
     still_lying = judged(lying_there, mask_there, T_true)  # carried where the goal is, but still on its side
     assert not still_lying.ok and still_lying.stood.tilt_deg > 80, still_lying.reason
+
+
+def test_a_bottle_judged_by_its_axis_must_stand_on_the_end_the_goal_puts_down(sim_profile_with, tmp_path):
+    """An axis has no direction: against a goal that stands the bottle on its neck, a bottle standing on its base
+    has the right axis and place but the wrong end up, and is not stood up as asked."""
+    from pipeline.grounding.compare import half_turn_across
+
+    profile, lying, mask0, P0 = _bottle_view(sim_profile_with, tmp_path, "lying", (0.52, 0.06), lying=True)
+    _, standing, mask1, P1 = _bottle_view(sim_profile_with, tmp_path, "standing", (0.47, 0.02), lying=False)
+    flip = np.eye(4)  # half a turn across the standing bottle's axis, about its middle: neck down, same place
+    flip[:3, :3] = half_turn_across(P1[:3, 2])
+    flip[:3, 3] = P1[:3, 3] - flip[:3, :3] @ P1[:3, 3]
+    verdict = _judged_by_axis(profile, lying, mask0, flip @ P1 @ np.linalg.inv(P0), standing, mask1)
+    assert not verdict.ok and verdict.stood.tilt_deg < 5 and verdict.stood.error_m < 0.01, verdict.reason
+    assert "stands on the end the goal puts up" in verdict.reason
