@@ -1,7 +1,7 @@
 """Contact candidates on the object's point cloud (base frame, table top at z = 0).
 
-Grasps: the fingers close along an axis y, the gripper approaches along z (straight down, or from the side
-toward the object from the robot). The object's width between the pads is measured on the cloud, and the
+Grasps: the fingers close along an axis y, the gripper approaches along z (straight down, leaning LEAN_DEG about
+y away from a tall neighbour, or from the side toward the object from the robot). The object's width between the pads is measured on the cloud, and the
 antipodal quality is how well the surface normals at the two contact sides line up with y. One camera sees
 only part of an object, so a side with no observed surface counts as half quality instead of failing. Pads
 closing at a slant on faces (a block's, a lying can's side) turn the object square to them as they squeeze, by
@@ -41,6 +41,9 @@ SLANT_RATIO = 2.0
 THIN_RATIO = 0.2
 SWAY_RAD = 0.1
 STANDING_COS = 0.5  # a flat part whose faces' normal is this close to horizontal stands on its edge
+# a grasp from above also leans this far each way about its closing axis (the pads stay on the same faces), its
+# wrist away from a tall neighbour in front of or behind the fingers
+LEAN_DEG = 20.0
 
 
 @dataclass(frozen=True)
@@ -236,10 +239,17 @@ def grasp_candidates(
     faces = face_yaw(normals)
     square = (lambda T: _square_to_faces(T, faces)) if faces is not None else (lambda T: _squared(points, normals, T))
     poses = [square(T) if T[2, 2] < -0.99 else T for T in poses]
+    leaning = [
+        (lean, spot)
+        for T, spot in zip(poses, spots, strict=True)
+        if spot is not None
+        for lean in _leaning(T, gripper_tcp)
+    ]
+    poses, spots = poses + [T for T, _ in leaning], spots + [spot for _, spot in leaning]
     kept, seen = [], set()
     for T, spot in zip(poses, spots, strict=True):
         closing = np.degrees(np.arctan2(T[1, 1], T[0, 1])) % 180.0  # squared sweeps meet: one grasp each
-        key = (*np.round(T[:3, 3], 4), round(closing) % 180, round(T[2, 2], 2))
+        key = (*np.round(T[:3, 3], 4), round(closing) % 180, *np.round(T[:3, 2], 2))
         if key not in seen:
             seen.add(key)
             kept.append((T, spot))
@@ -259,7 +269,7 @@ def grasp_candidates(
             continue
         T = T.copy()
         T[:3, 3] += shift * T[:3, 1]
-        if width + 2 * cfg.finger_clearance_m > max_width_m:
+        if width + 2 * cfg.min_finger_clearance_m > max_width_m:
             rejected["too wide for the gripper"] += 1
             continue
         approach = float(np.clip(T[:3, 2] @ down, 0.0, 1.0))
@@ -272,6 +282,19 @@ def grasp_candidates(
             grip = float(np.ptp(local[slab, 1])) if slab.sum() >= 5 and np.ptp(local[slab, 1]) < width else None
         out.append(Candidate("grasp", T, width, antipodal, approach, centred, sway_m=sway, grip_width_m=grip))
     return out, rejected
+
+
+def _leaning(T: np.ndarray, gripper_tcp: np.ndarray | None) -> list[np.ndarray]:
+    """T turned LEAN_DEG each way about its closing axis through the TCP, each raised as far as its lowest gripper
+    corner (gripper_tcp, TCP frame) went below the straight grasp's."""
+    out = []
+    for sign in (-1.0, 1.0):
+        lean = T.copy()
+        lean[:3, :3] = Rotation.from_rotvec(sign * np.radians(LEAN_DEG) * T[:3, 1]).as_matrix() @ T[:3, :3]
+        if gripper_tcp is not None:
+            lean[2, 3] += max(0.0, float(np.min(gripper_tcp @ T[2, :3])) - float(np.min(gripper_tcp @ lean[2, :3])))
+        out.append(lean)
+    return out
 
 
 def push_candidates(

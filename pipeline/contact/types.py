@@ -20,6 +20,12 @@ class ContactConfig(StrictModel):
     yaw_step_deg: float = Field(default=15.0, ge=1, le=90, description="closing-axis step of the grasp sweep")
     side_approach_deg: tuple[float, ...] = Field(default=(-30.0, 0.0, 30.0), max_length=12)
     finger_clearance_m: float = Field(default=0.008, ge=0, description="free gap kept each side when opening")
+    min_finger_clearance_m: float = Field(
+        default=0.004,
+        ge=0,
+        description="the least free gap each side for an object too wide for finger_clearance_m: the fingers open "
+        "fully and the collision checks judge the descent",
+    )
     squeeze_m: float = Field(default=0.02, ge=0, description="commanded width below the object's width")
     grasp_depth_m: float = Field(default=0.04, gt=0, description="how far the TCP goes below the object top")
     min_tcp_height_m: float = Field(default=0.012, ge=0, description="lowest TCP height above the table")
