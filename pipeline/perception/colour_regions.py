@@ -167,8 +167,9 @@ def _brightness_split(comp: np.ndarray, val: np.ndarray) -> list[np.ndarray]:
 
 
 def _components(rgb: np.ndarray) -> tuple[np.ndarray, list[str]]:
-    """Connected components of each colour label: an id map (0 = none) and each id's colour name ("achromatic"
-    until its region is named white, gray or black)."""
+    """Connected components of each colour label, side by side (4-connected: two objects of one colour whose
+    corners meet at one pixel stay apart): an id map (0 = none) and each id's colour name ("achromatic" until its
+    region is named white, gray or black)."""
     labels = label_pixels(rgb)
     _, sat, val = hsv(rgb)
     kernel = np.ones((3, 3), np.uint8)
@@ -176,7 +177,7 @@ def _components(rgb: np.ndarray) -> tuple[np.ndarray, list[str]]:
     names = [""]
     for label in range(len(CHROMATIC) + 1):
         mask = cv2.morphologyEx((labels == label).astype(np.uint8), cv2.MORPH_OPEN, kernel)
-        n, comp = cv2.connectedComponents(mask, connectivity=8)
+        n, comp = cv2.connectedComponents(mask, connectivity=4)
         for i in range(1, n):
             if label == ACHROMATIC_LABEL:
                 pieces = _brightness_split(comp == i, val)

@@ -114,6 +114,16 @@ def test_two_same_coloured_objects_are_two_detections():
     assert len(OfflineSegmenter().segment(img, "red block")) == 2
 
 
+def test_same_coloured_objects_meeting_at_a_corner_are_two_detections():
+    """A dark blue cube whose corner meets a blue chest's in the image (one pixel, diagonally) is an object of its
+    own (case 11005: the chest was moved with the cube and the goal refused)."""
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    cv2.rectangle(img, (30, 30), (70, 60), (60, 80, 170), -1)  # the chest
+    cv2.rectangle(img, (71, 61), (85, 75), (20, 30, 150), -1)  # the cube, corner to corner with it
+    found = OfflineSegmenter().segment(img, "blue block")
+    assert sorted(f.area_px for f in found) == [15 * 15, 41 * 31]
+
+
 def test_phrases_are_validated():
     assert parse_phrase("the grey cube").colour == "gray" and parse_phrase("the grey cube").kinds == {"box"}
     assert parse_phrase("the box").kinds == {"box", "lidded_box"} and parse_phrase("the dark blue can").colour == "blue"
