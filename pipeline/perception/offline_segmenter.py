@@ -25,7 +25,9 @@ the box's region (faces are the pieces between the edges inside it). With no che
 with a lid the largest is the chest (shut, it looks like a box, and outsizes a block of a paler shade beside it).
 Limits, by design of a no-model backend: brown is not separable from the wooden table, regions touching the
 image border are ignored (the floor, the robot base), touching objects of one colour and one saturation are one
-region, and a white scale (plate and base clipped alike) is told only by its plate's rim around a lit core.
+region (when it reads as no object of the named kind, a depth image cuts it where one stands in front of the
+other: occlusion.py), and a white scale (plate and base clipped alike) is told only by its plate's rim around a
+lit core.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ import cv2
 import numpy as np
 
 from pipeline.perception.colour_regions import ACHROMATIC, CHROMATIC, Region, hsv, regions
+from pipeline.perception.occlusion import occlusion_pieces
 from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, box_of, check_rgb
 from pipeline.perception.shape_cues import SPECK_AREA_FRAC, classify, cues, two_shades
 
@@ -186,6 +189,8 @@ class OfflineSegmenter(Segmenter):
         }
         candidates = [i for i in instances if id(i) not in lids]
         objects = _matching(candidates, want, self.min_shape_score)
+        if depth_m is not None and want.kinds is not None and not any(i.kind in want.kinds for i in objects):
+            objects = self._apart(rgb, candidates, want, depth_m) or objects
         if want.plural and want.colour is not None:  # several small parts touching are one region: a pile
             objects += _piles(rgb, [i for i in candidates if all(i is not o for o in objects)], want)
         if not objects and want.part is not None and want.kinds is not None and "lidded_box" in want.kinds:
@@ -220,17 +225,39 @@ class OfflineSegmenter(Segmenter):
 
     def instances(self, rgb: np.ndarray) -> list[Instance]:
         """Every colour region of the image with its kind."""
-        min_area = max(20, int(self.min_area_frac * rgb.shape[0] * rgb.shape[1]))
-        out = []
-        h, s, v = hsv(rgb)
-        for region in regions(rgb, min_area):
-            shape = cues(region.mask, rgb)
-            kind, scores = classify(shape, region.colour)
-            if kind == "platform" and region.colour == "white" and two_shades(shape):  # a light plate on a gray
-                region = Region(region.mask, "gray")  # base: a scale is named by its base, every scale's plate is light
-            m = region.mask
-            out.append(Instance(region, kind, scores, (h[m], s[m], v[m])))
-        return out
+        hsv_image = hsv(rgb)
+        return [_instance(rgb, hsv_image, region) for region in regions(rgb, self._min_area(rgb))]
+
+    def _min_area(self, rgb: np.ndarray) -> int:
+        return max(20, int(self.min_area_frac * rgb.shape[0] * rgb.shape[1]))
+
+    def _apart(
+        self, rgb: np.ndarray, candidates: list[Instance], want: ObjectPhrase, depth_m: np.ndarray
+    ) -> list[Instance]:
+        """When no region of the phrase's colour reads as its kind, the named object may share its region with a
+        neighbour of its colour in front of or behind it (a small blue box behind a blue pan's rim): the regions
+        cut where the depth steps (occlusion.py), and the pieces of the named kind, if any. Only then: a bowl's
+        or a pan's floor lies behind its near rim too and would be cut off."""
+        hsv_image = hsv(rgb)
+        pieces = [
+            _instance(rgb, hsv_image, Region(piece, i.region.colour))
+            for i in candidates
+            if want.colour is None or i.region.colour == want.colour
+            for piece in occlusion_pieces(i.region.mask, depth_m, self._min_area(rgb))
+            if piece.sum() < i.region.area
+        ]
+        found = _matching(pieces, want, self.min_shape_score)
+        return [i for i in found if i.kind in want.kinds]
+
+
+def _instance(rgb: np.ndarray, hsv_image: tuple[np.ndarray, np.ndarray, np.ndarray], region: Region) -> Instance:
+    """A colour region with its kind."""
+    shape = cues(region.mask, rgb)
+    kind, scores = classify(shape, region.colour)
+    if kind == "platform" and region.colour == "white" and two_shades(shape):  # a light plate on a gray base: a
+        region = Region(region.mask, "gray")  # scale is named by its base, every scale's plate is light
+    m = region.mask
+    return Instance(region, kind, scores, tuple(channel[m] for channel in hsv_image))
 
 
 def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> list[Instance]:

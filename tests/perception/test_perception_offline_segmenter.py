@@ -124,6 +124,27 @@ def test_same_coloured_objects_meeting_at_a_corner_are_two_detections():
     assert sorted(f.area_px for f in found) == [15 * 15, 41 * 31]
 
 
+def test_an_object_behind_a_neighbour_of_its_colour_is_found_by_depth():
+    """A small blue box just behind a blue dish's rim makes one colour region with it, which reads as no box; the
+    depth steps all along the line where they meet, and the piece behind it is the box (case 11079: 'the blue box'
+    was the box and the pan together, 146 mm across, and did not fit in the bowl)."""
+    img = np.full((120, 160, 3), TABLE, np.uint8)
+    depth = np.full((120, 160), 1.0)
+    dish = np.zeros((120, 160), np.uint8)
+    cv2.circle(dish, (70, 70), 25, 1, -1)
+    box = np.zeros((120, 160), bool)
+    box[30:52, 76:98] = True
+    box &= dish == 0
+    for mask, near in ((box, 0.97), (dish == 1, 0.90)):
+        img[mask] = (30, 60, 200)
+        depth[mask] = near
+    seg = OfflineSegmenter()
+    (merged,) = seg.segment(img, "blue box")  # no depth: the two are one region
+    assert merged.area_px > (dish == 1).sum()
+    (found,) = seg.segment(img, "blue box", depth)
+    assert (found.mask & box).sum() / (found.mask | box).sum() > 0.97
+
+
 def test_phrases_are_validated():
     assert parse_phrase("the grey cube").colour == "gray" and parse_phrase("the grey cube").kinds == {"box"}
     assert parse_phrase("the box").kinds == {"box", "lidded_box"} and parse_phrase("the dark blue can").colour == "blue"
