@@ -33,6 +33,9 @@ TWO_TONE_MAX_RATIO = 0.38
 # its smaller extent, a pixel in shade below SHADE_OF_TOP of the region's 90th-percentile value
 CORE_SHARE, SHADE_OF_TOP = 0.15, 0.8
 BOX_MAX_ELONGATION = 2.6  # a block's side seen square-on: the sim's boxes are up to 2.5 times as tall as wide
+# a platform or scale is about as deep as it is wide: seen from the camera at most 1.75 times as long as wide (212
+# seen), a lying bottle or can 2-6 (a light one's lit faces read as a neutral plate on top)
+PLATFORM_MAX_ELONGATION = 2.2
 RESEMBLES = 0.9  # a kind that only resembles an older one (dustpan, rack, stand) scores at most this
 NOTCH_SHARE = 0.15  # notches narrower than this share of a region's smaller extent are closed (a rack's tines)
 # shading, on the brightest channel: a pixel is level when its 3x3 neighbourhood varies by at most LEVEL_STEP of its
@@ -248,6 +251,9 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     # shading: a ball has no level face, a block is level faces with steps between them (little ramp), a standing
     # can a level top above a side shaded across
     no_level_face = _shaded(c.level_share, 0.0, 0.1, 0.1)
+    # a plate's top is level nearly all over (252 seen: at least 0.76 where readable), a ball's nowhere (0 of 515): a
+    # small ball seen a little wider than tall is no plate
+    level_top = _shaded(c.level_share, 0.5, 1.0, 0.2)
     curved = _shaded(c.ramp_share, 0.35, 1.0, 0.1)
     shaded_round = 0.0 if c.ramp_share is None else _within(c.ramp_share, 0.6, 1.0, 0.1)  # ramps nearly all over
     standing_can = (
@@ -270,13 +276,15 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         # (seen through a rack's tines, the tines' notches closed)
         "plate": _within(c.aspect, 1.08, 1.5, 0.08)
         * _within(max(c.ellipse_iou, c.closed_ellipse_iou), 0.96, 1.0, 0.03)
-        * _within(c.edge_density, 0.0, 2.6, 0.6),
+        * _within(c.edge_density, 0.0, 2.6, 0.6)
+        * level_top,
         # a pan: a narrow handle at one end, or a round body with a thin part cut off (a handle seen end-on)
         "pan": max(
             _within(c.end_width, 0.0, 0.3, 0.1) * _within(c.ellipse_iou, 0.0, 0.8, 0.08),
             round_body * _within(c.body_share, 0.0, 0.96, 0.02) * _within(c.ellipse_iou, 0.0, 0.85, 0.04),
         ),
-        "platform": max(plate_on_top * _within(c.corners, 0.0, 6.0, 1.0) * (1.0 - 0.5 * round_outline), plate_set_in),
+        "platform": max(plate_on_top * _within(c.corners, 0.0, 6.0, 1.0) * (1.0 - 0.5 * round_outline), plate_set_in)
+        * _within(c.elongation, 1.0, PLATFORM_MAX_ELONGATION, 0.3),
         "box": _within(c.corners, 0.0, 6.5, 2.5)
         * _within(c.ellipse_iou, 0.0, 0.94, 0.03)
         * _within(c.edge_density, 0.0, 2.2, 0.8)

@@ -486,3 +486,20 @@ def test_a_scale_whose_base_is_partly_hidden_is_a_scale(sim_profile_with, tmp_pa
     places = ([0.367, 0.047, 4.8], [0.508, 0.049, 0.0])
     instances = _placed_instances(sim_profile_with, tmp_path, "hidden_base", objects, places)
     assert _kinds_of_the_objects(instances) == {"scale": "platform", "can": "cylinder"}
+
+
+def test_a_pale_lying_bottle_is_no_platform_and_a_small_ball_no_plate(sim_profile_with, tmp_path):
+    """A light pink bottle lying in the light: its lit faces are near neutral, a light plate on top as a scale's is,
+    but a platform is about as deep as it is wide (generated case 11088: 'the platform' matched it and the real
+    one). A small ball seen a little wider than tall has a plate's outline, but its shading has no level face
+    (11021: 'the ball' matched nothing)."""
+    objects = [
+        {"name": "bottle", "kind": "bottle", "color": "light_pink", "radius_m": 0.028, "height_m": 0.197},
+        {"name": "ball", "kind": "sphere", "color": "purple", "radius_m": 0.026},
+        {"name": "platform", "kind": "platform", "color": "light_red", "size_m": [0.1, 0.117, 0.036]},
+        {"name": "bowl", "kind": "bowl", "color": "dark_cyan", "radius_m": 0.086, "height_m": 0.051},
+    ]
+    objects[0]["lying"] = True
+    places = ([0.3158, 0.094, -115.55], [0.3905, -0.1032, 99.41], [0.418, -0.24, -2.8], [0.55, 0.25, -39.6])
+    instances = _placed_instances(sim_profile_with, tmp_path, "pale", objects, places)
+    assert _kinds_of_the_objects(instances) == {o["name"]: o["kind"] for o in objects}
