@@ -1,9 +1,10 @@
 """Contact candidates on the object's point cloud (base frame, table top at z = 0).
 
 Grasps: the fingers close along an axis y, the gripper approaches along z (straight down, leaning LEAN_DEG about
-y away from a tall neighbour, or from the side toward the object from the robot). The object's width between the pads is measured on the cloud, and the
-antipodal quality is how well the surface normals at the two contact sides line up with y. One camera sees
-only part of an object, so a side with no observed surface counts as half quality instead of failing. Pads
+y away from a tall neighbour, or from the side toward the object from the robot). The object's width between the
+pads is measured on the cloud, and the antipodal quality is how well the surface normals at the two contact sides
+line up with y. One camera sees only part of an object, so a side with no observed surface counts as half quality
+instead of failing. Pads
 closing at a slant on faces (a block's, a lying can's side) turn the object square to them as they squeeze, by
 the slant (a lying can grasped 15 deg off square was set down 15 deg over its goal turn), so each grasp from
 above is first turned about its approach axis square to the faces it closes on (_squared).

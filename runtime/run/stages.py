@@ -30,7 +30,7 @@ from pipeline.grounding.group import ground_group
 from pipeline.grounding.level import kept_level
 from pipeline.grounding.settle import settled
 from pipeline.grounding.types import GroundingInput
-from pipeline.grounding.upright import stood_on_its_base
+from pipeline.grounding.upright import stood_on_its_base, stood_straight
 from pipeline.perception.features import FeatureExtractor, features_from_config
 from pipeline.perception.segmenter import Segmenter
 from pipeline.reasoning.factory import build_reasoner, build_segmenter
@@ -153,6 +153,8 @@ class PipelineStages:
             seen = points[ctx.goal.mask_init & known]
             up = frame.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
             motion = stood_on_its_base(motion, seen, up)
+            if instruction_action(ctx.instruction) == "stand_up":
+                motion = stood_straight(motion, seen, up)
             if instruction_action(ctx.instruction) in PUTS_DOWN:
                 motion = kept_level(motion, seen, up)
             if instruction_action(ctx.instruction) in COMES_TO_REST:

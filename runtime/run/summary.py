@@ -72,7 +72,8 @@ class MotionRecord(Section):
         )
 
 
-ADJUSTMENTS = ("turned_end_for_end", "kept_level", "settled")  # ObjectMotion.details keys: why it was changed
+# ObjectMotion.details keys: why it was changed
+ADJUSTMENTS = ("turned_end_for_end", "stood_straight", "kept_level", "settled")
 
 
 class ContactRecord(Section):

@@ -1,5 +1,5 @@
 """A bottle stands on its base: a grounded motion standing one on its neck is turned end for end, one standing it
-on its base and a can's are kept."""
+on its base and a can's are kept; one standing it leaning is stood straight."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pipeline.grounding.types import ObjectMotion
-from pipeline.grounding.upright import stood_on_its_base
+from pipeline.grounding.upright import stood_on_its_base, stood_straight
 
 UP = np.array([0.0, 0.0, 1.0])  # camera frame == base frame here
 CENTRE = np.array([0.45, 0.0, 0.03])
@@ -54,3 +54,28 @@ def test_a_bottle_on_its_base_and_a_can_either_way_keep_their_motion(neck, neck_
 def test_a_bottle_left_lying_keeps_its_motion():
     shift = ObjectMotion(ok=True, reason="", R=np.eye(3), t=np.array([0.1, 0.0, 0.0]))
     assert stood_on_its_base(shift, lying(neck=True), UP) is shift
+
+
+@pytest.mark.parametrize("lean_deg", [13.7, -30.0])
+def test_a_stand_up_goal_leaning_off_vertical_is_stood_straight_about_its_middle(lean_deg):
+    """A goal grounded 13.7 deg off vertical (held-out case 13062): the bottle set down leaning falls onto its base
+    off the goal; stood straight, the axis is vertical and its middle stays where the goal put it."""
+    points = lying(neck=True)
+    given = standing(neck_up=True)
+    lean = Rotation.from_euler("x", lean_deg, degrees=True).as_matrix()
+    middle = np.array([CENTRE[0], 0.0, CENTRE[2]])  # on the body's axis
+    goal_middle = given.R @ middle + given.t
+    leaning = ObjectMotion(ok=True, reason="", R=lean @ given.R, t=lean @ (given.t - goal_middle) + goal_middle)
+    motion = stood_straight(leaning, points, UP)
+    assert "stood_straight" in motion.details
+    axis = np.array([1.0, 0.0, 0.0])
+    assert (motion.R @ axis) @ UP > 0.9999  # the neck end straight up
+    axis_middle = np.array([0.0 + CENTRE[0], 0.0, CENTRE[2]])
+    assert np.linalg.norm((motion.R @ axis_middle + motion.t) - goal_middle) < 0.005
+
+
+def test_a_straight_stand_up_and_a_move_that_leaves_the_body_lying_keep_their_motion():
+    upright = standing(neck_up=True)
+    assert stood_straight(upright, lying(neck=True), UP) is upright
+    shift = ObjectMotion(ok=True, reason="", R=np.eye(3), t=np.array([0.1, 0.0, 0.0]))
+    assert stood_straight(shift, lying(neck=True), UP) is shift
