@@ -238,12 +238,12 @@ class OfflineSegmenter(Segmenter):
         neighbour of its colour in front of or behind it (a small blue box behind a blue pan's rim): the regions
         cut where the depth steps (occlusion.py), and the pieces of the named kind, if any. Only then: a bowl's
         or a pan's floor lies behind its near rim too and would be cut off."""
-        hsv_image = hsv(rgb)
+        hsv_image, min_area = hsv(rgb), self._min_area(rgb)
         pieces = [
             _instance(rgb, hsv_image, Region(piece, i.region.colour))
             for i in candidates
             if want.colour is None or i.region.colour == want.colour
-            for piece in occlusion_pieces(i.region.mask, depth_m, self._min_area(rgb))
+            for piece in occlusion_pieces(i.region.mask, depth_m, min_area)
             if piece.sum() < i.region.area
         ]
         found = _matching(pieces, want, self.min_shape_score)

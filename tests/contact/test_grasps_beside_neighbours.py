@@ -9,32 +9,19 @@ away from it about its closing axis clears it with the pads on the same faces.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from motion.manipulation.phases import place_heights
 from pipeline.contact.held import held_box
 from pipeline.contact.planner import plan_contacts
 from pipeline.contact.sampling import LEAN_DEG, estimate_normals, grasp_candidates
 from pipeline.contact.types import ContactConfig
-from runtime.config import load_profile
 from runtime.run.contact import lowest_safe_tcp_height
 from safety.collision import CollisionWorld
 from safety.geometry import transform_points
-from safety.robot_model import RobotModel
 
 CONFIG = "configs/sim.yaml"
 BLOCK_XY = np.array([0.42, 0.0])
 HALF = 0.03  # the block's half size (a 6 cm cube)
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return RobotModel()
-
-
-@pytest.fixture(scope="module")
-def safety():
-    return load_profile(CONFIG).safety
 
 
 def _cube_points(step: float = 0.004) -> np.ndarray:

@@ -9,7 +9,6 @@ stood up instead of refused for a pose it never reaches.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from motion.cartesian import cartesian_path
 from motion.limits import MotionLimits
@@ -20,24 +19,12 @@ from pipeline.contact.held import held_box
 from pipeline.contact.planner import plan_contacts
 from pipeline.contact.sampling import LEAN_DEG
 from pipeline.contact.types import ContactConfig
-from runtime.config import load_profile
 from runtime.run.contact import lowest_safe_tcp_height
 from safety.collision import CollisionWorld
 from safety.geometry import transform_points, turn_about
-from safety.robot_model import RobotModel
 
 CONFIG = "configs/sim.yaml"
 CENTRE_XY = np.array([0.56, -0.12])
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return RobotModel()
-
-
-@pytest.fixture(scope="module")
-def safety():
-    return load_profile(CONFIG).safety
 
 
 def lying_can(
