@@ -19,7 +19,6 @@ from runtime.run.contact import lowest_safe_tcp_height
 from safety.collision import CollisionWorld
 from safety.geometry import transform_points
 
-CONFIG = "configs/sim.yaml"
 BLOCK_XY = np.array([0.42, 0.0])
 HALF = 0.03  # the block's half size (a 6 cm cube)
 

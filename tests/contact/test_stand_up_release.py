@@ -23,7 +23,6 @@ from runtime.run.contact import lowest_safe_tcp_height
 from safety.collision import CollisionWorld
 from safety.geometry import transform_points, turn_about
 
-CONFIG = "configs/sim.yaml"
 CENTRE_XY = np.array([0.56, -0.12])
 
 
