@@ -1,6 +1,6 @@
 """Contact candidates on the object's point cloud (base frame, table top at z = 0).
 
-Grasps: the fingers close along an axis y, the gripper approaches along z (straight down, leaning LEAN_DEG about
+Grasps: the fingers close along an axis y, the gripper approaches along z (straight down, leaning cfg.lean_deg about
 y away from a tall neighbour, or from the side toward the object from the robot). The object's width between the
 pads is measured on the cloud, and the antipodal quality is how well the surface normals at the two contact sides
 line up with y. One camera sees only part of an object, so a side with no observed surface counts as half quality
@@ -42,9 +42,6 @@ SLANT_RATIO = 2.0
 THIN_RATIO = 0.2
 SWAY_RAD = 0.1
 STANDING_COS = 0.5  # a flat part whose faces' normal is this close to horizontal stands on its edge
-# a grasp from above also leans this far each way about its closing axis (the pads stay on the same faces), its
-# wrist away from a tall neighbour in front of or behind the fingers
-LEAN_DEG = 20.0
 
 
 @dataclass(frozen=True)
@@ -244,7 +241,7 @@ def grasp_candidates(
         (lean, spot)
         for T, spot in zip(poses, spots, strict=True)
         if spot is not None
-        for lean in _leaning(T, gripper_tcp)
+        for lean in _leaning(T, gripper_tcp, cfg.lean_deg)
     ]
     poses, spots = poses + [T for T, _ in leaning], spots + [spot for _, spot in leaning]
     kept, seen = [], set()
@@ -285,13 +282,15 @@ def grasp_candidates(
     return out, rejected
 
 
-def _leaning(T: np.ndarray, gripper_tcp: np.ndarray | None) -> list[np.ndarray]:
-    """T turned LEAN_DEG each way about its closing axis through the TCP, each raised as far as its lowest gripper
+def _leaning(T: np.ndarray, gripper_tcp: np.ndarray | None, lean_deg: float) -> list[np.ndarray]:
+    """T turned lean_deg each way about its closing axis through the TCP, each raised as far as its lowest gripper
     corner (gripper_tcp, TCP frame) went below the straight grasp's."""
     out = []
+    if lean_deg <= 0.0:
+        return out
     for sign in (-1.0, 1.0):
         lean = T.copy()
-        lean[:3, :3] = Rotation.from_rotvec(sign * np.radians(LEAN_DEG) * T[:3, 1]).as_matrix() @ T[:3, :3]
+        lean[:3, :3] = Rotation.from_rotvec(sign * np.radians(lean_deg) * T[:3, 1]).as_matrix() @ T[:3, :3]
         if gripper_tcp is not None:
             lean[2, 3] += max(0.0, float(np.min(gripper_tcp @ T[2, :3])) - float(np.min(gripper_tcp @ lean[2, :3])))
         out.append(lean)

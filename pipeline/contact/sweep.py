@@ -312,7 +312,7 @@ def _reachable(
     lifts = (cfg.release_m, cfg.release_m + LIFT_M)
     # every reachable grasp (not the few best): the one nearest the head is wanted, whatever its score
     grasp_config = contact.model_copy(
-        update={"place_lifts_m": lifts, "side_approach_deg": (), "keep": contact.ik_candidates}
+        update={"place_lifts_m": lifts, "side_approach_deg": (), "lean_deg": 0.0, "keep": contact.ik_candidates}
     )
     others = np.vstack([scene, group]) if len(group) else scene
     world = CollisionWorld(robot, safety_config, points=np.vstack([others, shape.head]), table=False)

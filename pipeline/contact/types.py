@@ -19,6 +19,13 @@ class ContactConfig(StrictModel):
 
     yaw_step_deg: float = Field(default=15.0, ge=1, le=90, description="closing-axis step of the grasp sweep")
     side_approach_deg: tuple[float, ...] = Field(default=(-30.0, 0.0, 30.0), max_length=12)
+    lean_deg: float = Field(
+        default=20.0,
+        ge=0,
+        le=45,
+        description="grasps from above also lean this far each way about the closing axis (the pads stay on the "
+        "same faces), the wrist away from a tall neighbour in front of or behind the fingers; 0: straight down only",
+    )
     finger_clearance_m: float = Field(default=0.008, ge=0, description="free gap kept each side when opening")
     min_finger_clearance_m: float = Field(
         default=0.004,

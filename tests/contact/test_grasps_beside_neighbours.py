@@ -13,12 +13,13 @@ import numpy as np
 from motion.manipulation.phases import place_heights
 from pipeline.contact.held import held_box
 from pipeline.contact.planner import plan_contacts
-from pipeline.contact.sampling import LEAN_DEG, estimate_normals, grasp_candidates
+from pipeline.contact.sampling import estimate_normals, grasp_candidates
 from pipeline.contact.types import ContactConfig
 from runtime.run.contact import lowest_safe_tcp_height
 from safety.collision import CollisionWorld
 from safety.geometry import transform_points
 
+LEAN_DEG = ContactConfig().lean_deg
 BLOCK_XY = np.array([0.42, 0.0])
 HALF = 0.03  # the block's half size (a 6 cm cube)
 

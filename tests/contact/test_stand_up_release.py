@@ -17,7 +17,6 @@ from motion.planner import Planner, PlannerConfig
 from motion.segments import scaled_limits
 from pipeline.contact.held import held_box
 from pipeline.contact.planner import plan_contacts
-from pipeline.contact.sampling import LEAN_DEG
 from pipeline.contact.types import ContactConfig
 from runtime.run.contact import lowest_safe_tcp_height
 from safety.collision import CollisionWorld
@@ -73,7 +72,7 @@ def test_a_can_stood_up_by_its_middle_is_let_go_where_the_wrist_clears_the_floor
         assert np.ptp(stood[:, 2]) > 0.075  # on its end (8 cm tall), not turned some other way
         release = p.T_place[0]
         assert release[2, 3] >= p.T_goal[2, 3] + place_heights(safety.padding_m)[0] - 1e-9
-        assert abs(release[2, 2]) < np.sin(np.radians(LEAN_DEG)) + 0.01  # sideways (or leaning), as standing up needs
+        assert abs(release[2, 2]) < np.sin(np.radians(ContactConfig().lean_deg)) + 0.01  # sideways (or leaning)
         world = CollisionWorld(robot, safety, points=np.zeros((0, 3)), table=False)
         assert not world.check(p.q_place[0], p.release_width_m)  # the joints it lets go with: free, in the workspace
         np.testing.assert_allclose(robot.tcp_pose(p.q_place[0]), release, atol=2e-3)

@@ -1,5 +1,5 @@
-"""The contact stage in a whole run: a stand-up whose grounded turn about the bottle's own axis would have ended
-with the wrist behind the bottle."""
+"""The contact stage in a whole run: a stand-up, planned with the bottle's turns about its own axis as alternatives
+(a body of revolution looks the same turned about its axis, so any of them reaches the goal)."""
 
 from __future__ import annotations
 
@@ -23,6 +23,7 @@ def test_goalvla_run_stands_the_bottle_up(sim_config_path, tmp_path):
     assert abs(lying[2]) < 0.1
     assert result.status == State.DONE, result.reason
     assert result.summary.plan.mode == "grasp"
-    # as grounded, every grasp would end with the wrist behind the bottle: it is set down turned about its axis
-    assert min(result.summary.contact.turn_from_grounded_deg) > 10.0
+    # turned plans among the alternatives (which plan leads depends on which wrists the IK reaches)
+    turns = result.summary.contact.turn_from_grounded_deg
+    assert len(turns) == result.summary.contact.plans and max(turns) > 10.0, turns
     assert abs(axis[2]) > np.cos(np.radians(15.0)), f"ground truth: the bottle's axis is {axis}, not upright"
