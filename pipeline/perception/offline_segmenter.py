@@ -178,7 +178,7 @@ class OfflineSegmenter(Segmenter):
     def segment(self, rgb: np.ndarray, phrase: str, depth_m: np.ndarray | None = None) -> list[Detection]:
         check_rgb(rgb, "offline segmenter")
         want = parse_phrase(phrase)
-        instances = self.instances(rgb)
+        instances = self.instances(rgb, depth_m)
         # a lidded box's lid is no object of its own, whatever it looks like (an open lid seen edge-on: a bottle)
         lids = {
             id(lid)
@@ -223,10 +223,10 @@ class OfflineSegmenter(Segmenter):
 
         return tuple(colour(m) for m in masks)
 
-    def instances(self, rgb: np.ndarray) -> list[Instance]:
-        """Every colour region of the image with its kind."""
+    def instances(self, rgb: np.ndarray, depth_m: np.ndarray | None = None) -> list[Instance]:
+        """Every colour region of the image with its kind (told by its relief too where depth is given)."""
         hsv_image = hsv(rgb)
-        return [_instance(rgb, hsv_image, region) for region in regions(rgb, self._min_area(rgb))]
+        return [_instance(rgb, hsv_image, region, depth_m) for region in regions(rgb, self._min_area(rgb))]
 
     def _min_area(self, rgb: np.ndarray) -> int:
         return max(20, int(self.min_area_frac * rgb.shape[0] * rgb.shape[1]))
@@ -240,7 +240,7 @@ class OfflineSegmenter(Segmenter):
         or a pan's floor lies behind its near rim too and would be cut off."""
         hsv_image, min_area = hsv(rgb), self._min_area(rgb)
         pieces = [
-            _instance(rgb, hsv_image, Region(piece, i.region.colour))
+            _instance(rgb, hsv_image, Region(piece, i.region.colour), depth_m)
             for i in candidates
             if want.colour is None or i.region.colour == want.colour
             for piece in occlusion_pieces(i.region.mask, depth_m, min_area)
@@ -250,9 +250,14 @@ class OfflineSegmenter(Segmenter):
         return [i for i in found if i.kind in want.kinds]
 
 
-def _instance(rgb: np.ndarray, hsv_image: tuple[np.ndarray, np.ndarray, np.ndarray], region: Region) -> Instance:
+def _instance(
+    rgb: np.ndarray,
+    hsv_image: tuple[np.ndarray, np.ndarray, np.ndarray],
+    region: Region,
+    depth_m: np.ndarray | None = None,
+) -> Instance:
     """A colour region with its kind."""
-    shape = cues(region.mask, rgb)
+    shape = cues(region.mask, rgb, depth_m)
     kind, scores = classify(shape, region.colour)
     if kind == "platform" and region.colour == "white" and two_shades(shape):  # a light plate on a gray base: a
         region = Region(region.mask, "gray")  # scale is named by its base, every scale's plate is light

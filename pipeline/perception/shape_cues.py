@@ -52,6 +52,14 @@ MIN_UNCLIPPED = 0.5  # the shading is read when at least this share of the regio
 # MIN_SHADED_PX pixels, since the clip's blurred edge ramps too and makes most of a small one (a pale block's)
 PARTLY_UNCLIPPED, CURVED_RAMP = 0.15, 0.35
 MIN_SHADED_PX = 40
+# relief: the region's core (eroded by RELIEF_CORE_SHARE of its smaller extent) against the surface through its
+# outline (a band RELIEF_BAND_PX wide inside it, less its outermost pixel, where depth bleeds across the boundary);
+# inverse depth is affine in the pixel coordinates on a plane, so the surface is fitted to it. Hollow objects' cores
+# lie 27-95 mm behind (bowls, pans, open boxes), plates' 0-5 mm before, blocks', cans' and balls' 0-40 mm before
+RELIEF_CORE_SHARE, RELIEF_BAND_PX, RELIEF_MIN_PX = 0.3, 3, 10
+HOLLOW_RELIEF_M, RELIEF_MARGIN_M = 0.010, 0.004  # a core this far behind its outline is a container's inside
+# (a dustpan's scoop lies 12 mm behind)
+FLAT_RELIEF_M = 0.006  # a plate's core lies within this of its outline's plane
 
 
 @dataclass(frozen=True)
@@ -73,9 +81,10 @@ class Cues:
     wide_elongation: float  # elongation of the region's wide part (its slices at least 0.6 of the widest)
     level_share: float | None  # share of its inside shaded level (plane faces); None: unreadable (dark, clipped)
     ramp_share: float | None  # share on a shading ramp (a curved surface); None with level_share
+    relief_m: float | None = None  # median depth of the core behind the outline's surface; None: no depth known
 
 
-def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
+def cues(mask: np.ndarray, rgb: np.ndarray, depth_m: np.ndarray | None = None) -> Cues:
     m = mask.astype(np.uint8)
     v, u = np.nonzero(mask)
     area = float(mask.sum())
@@ -107,7 +116,29 @@ def cues(mask: np.ndarray, rgb: np.ndarray) -> Cues:
         area_frac=area / mask.size,
         wide_elongation=_wide_elongation(u, v),
         **_shading(mask, rgb),
+        relief_m=None if depth_m is None else _relief(mask, depth_m, min(np.ptp(u), np.ptp(v)) + 1),
     )
+
+
+def _relief(mask: np.ndarray, depth_m: np.ndarray, extent: int) -> float | None:
+    """Median depth (m) of the region's core behind the plane through its outline band (negative: before it);
+    None when too few pixels of either have depth."""
+    m = mask.astype(np.uint8)
+    known = np.isfinite(depth_m) & (depth_m > 0)
+    inner = cv2.erode(m, np.ones((3, 3), np.uint8)).astype(bool)
+    band_px = 2 * RELIEF_BAND_PX + 1
+    band = inner & ~cv2.erode(m, np.ones((band_px, band_px), np.uint8)).astype(bool) & known
+    k = max(3, int(RELIEF_CORE_SHARE * extent) | 1)
+    core = cv2.erode(m, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))).astype(bool) & known
+    if band.sum() < RELIEF_MIN_PX or core.sum() < RELIEF_MIN_PX // 2:
+        return None
+    bv, bu = np.nonzero(band)
+    plane, *_ = np.linalg.lstsq(np.c_[bu, bv, np.ones(len(bu))], 1.0 / depth_m[bv, bu], rcond=None)
+    cv_, cu = np.nonzero(core)
+    surface = np.c_[cu, cv_, np.ones(len(cu))] @ plane
+    if np.any(surface <= 0):
+        return None
+    return float(np.median(depth_m[cv_, cu] - 1.0 / surface))
 
 
 def _shading(mask: np.ndarray, rgb: np.ndarray) -> dict[str, float | None]:
@@ -234,8 +265,15 @@ def two_shades(c: Cues) -> bool:
 def scores(c: Cues, colour: str) -> dict[str, float]:
     """Score of each kind for a region with these cues and colour name."""
     inf = np.inf
+    # without depth, edges inside stand for a rim and inner walls (a decal's or a texture's edges mislead them) ...
     smooth = _within(c.edge_density, 0.0, 1.8, 0.8)  # no rim or inner walls inside
     hollow = _within(c.edge_density, 3.0, inf, 0.8)  # a rim and inner walls inside
+    plain_block = _within(c.edge_density, 0.0, 2.2, 0.8)
+    flat = _within(c.edge_density, 0.0, 2.6, 0.6)
+    if c.relief_m is not None:  # ... with depth, the relief says it: only a container's inside lies behind its rim
+        hollow = _within(c.relief_m, HOLLOW_RELIEF_M, inf, RELIEF_MARGIN_M)
+        smooth, plain_block = smooth * (1.0 - hollow), 1.0 - hollow  # (a cup's handle and rim are edges still)
+        flat = _within(c.relief_m, -FLAT_RELIEF_M, FLAT_RELIEF_M, RELIEF_MARGIN_M)
     round_outline = _within(c.corners, 7.5, inf, 1.0)
     plate_on_top = _plate_on_top(c, colour)
     # a white scale: a plate's rim inside, around a core that stays lit
@@ -276,7 +314,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         # (seen through a rack's tines, the tines' notches closed)
         "plate": _within(c.aspect, 1.08, 1.5, 0.08)
         * _within(max(c.ellipse_iou, c.closed_ellipse_iou), 0.96, 1.0, 0.03)
-        * _within(c.edge_density, 0.0, 2.6, 0.6)
+        * flat
         * level_top,
         # a pan: a narrow handle at one end, or a round body with a thin part cut off (a handle seen end-on)
         "pan": max(
@@ -287,7 +325,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * _within(c.elongation, 1.0, PLATFORM_MAX_ELONGATION, 0.3),
         "box": _within(c.corners, 0.0, 6.5, 2.5)
         * _within(c.ellipse_iou, 0.0, 0.94, 0.03)
-        * _within(c.edge_density, 0.0, 2.2, 0.8)
+        * plain_block
         * _within(c.rect_fill, 0.8, 1.0, 0.08)
         * _within(c.elongation, 1.0, BOX_MAX_ELONGATION, 0.4)
         * (1.0 - curved if c.ramp_share is not None else 1.0)
@@ -305,7 +343,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         )
         * _shaded(c.ramp_share, 0.2, 1.0, 0.1)  # a side shaded across, not level faces
         * max(smooth, shaded_round),  # (a dark can's highlight band is edges inside, on a side that ramps)
-        "bottle": necked * _within(c.elongation, 1.9, 4.5, 0.3),
+        "bottle": necked * _within(c.elongation, 1.9, 4.5, 0.3) * (1.0 - hollow if c.relief_m is not None else 1.0),
     }
     # the tasks' objects; a speck (a screw) is nothing else, a bar with a handle (a brush) is no pan
     speck = _within(c.area_frac, 0.0, SPECK_AREA_FRAC, 2e-4) * _within(c.elongation, 1.6, inf, 0.3)

@@ -65,7 +65,9 @@ class OfflineVLM(TextVLM):
         if instr.action != "place":
             return Verdict(True, (f"{instr.target} changed as asked ({instr.action}); no relation to check",))
         try:
-            found = apart_from(self.segmenter.segment(request.rgb_init, instr.reference), request.mask_init)
+            found = apart_from(
+                self.segmenter.segment(request.rgb_init, instr.reference, request.depth_init), request.mask_init
+            )
         except SegmentationError as e:
             return Verdict(False, (f"reference '{instr.reference}' not segmentable: {e}",))
         if len(found) != 1:
@@ -77,7 +79,7 @@ class OfflineVLM(TextVLM):
     def _reflect_sweep(self, request: ReflectionRequest, instr) -> Verdict:
         """Every part of the swept group in the goal image lies within the container's outline in the initial one."""
         try:
-            found = self.segmenter.segment(request.rgb_init, instr.reference)
+            found = self.segmenter.segment(request.rgb_init, instr.reference, request.depth_init)
         except SegmentationError as e:
             return Verdict(False, (f"container '{instr.reference}' not segmentable: {e}",))
         if len(found) != 1:

@@ -319,7 +319,16 @@ class Reasoner:
         else:
             t0 = time.perf_counter()
             request = ReflectionRequest(
-                instruction, it.prompt, overlay, rgb, cand, mask_init, mask_goal, enh.target, enh.reference
+                instruction,
+                it.prompt,
+                overlay,
+                rgb,
+                cand,
+                mask_init,
+                mask_goal,
+                enh.target,
+                enh.reference,
+                depth_init=frame.depth,
             )
             try:
                 it.verdict = self.vlm.reflect(request)

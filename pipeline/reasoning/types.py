@@ -85,6 +85,7 @@ class ReflectionRequest:
     mask_goal: np.ndarray
     target: str
     reference: str | None = None
+    depth_init: np.ndarray | None = None  # the capture's depth (metres), for a reflector that segments the capture
 
 
 @dataclass

@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from drivers.sim.generate import generate_case, phrases
+from drivers.types import RGBDFrame
 from pipeline.perception.offline_segmenter import OfflineSegmenter
 from pipeline.perception.segmenter import matches
 from sim_helpers import set_hinge
@@ -205,8 +206,8 @@ def _named(detections: list, truth: dict[str, np.ndarray]) -> dict:
     return {max(truth, key=lambda n: (truth[n] & d.mask).sum()): d for d in detections}
 
 
-def _placed_view(sim_profile_with, tmp_path, name: str, objects: list[dict], places) -> tuple[np.ndarray, dict]:
-    """The image of a scene of these objects set at (x, y, yaw) exactly, and each object's true mask."""
+def _placed_view(sim_profile_with, tmp_path, name: str, objects: list[dict], places) -> tuple[RGBDFrame, dict]:
+    """The capture of a scene of these objects set at (x, y, yaw) exactly, and each object's true mask."""
     for o, (x, y, yaw) in zip(objects, places, strict=True):
         o |= {"xy_m": [x, y], "yaw_deg": yaw}
     path = tmp_path / f"{name}.yaml"
@@ -214,17 +215,17 @@ def _placed_view(sim_profile_with, tmp_path, name: str, objects: list[dict], pla
     path.write_text(yaml.safe_dump(scene))
     _, camera = view(sim_profile_with, str(path))
     with camera:
-        return camera.read().rgb, camera.object_masks()
+        return camera.read(), camera.object_masks()
 
 
 def _placed_instances(
-    sim_profile_with, tmp_path, name: str, objects: list[dict], places
+    sim_profile_with, tmp_path, name: str, objects: list[dict], places, with_depth: bool = False
 ) -> list[tuple[str, str, float]]:
-    """The segmenter's instances in a scene of these objects set at (x, y, yaw) exactly: for each, the object it
-    covers most, its kind and its overlap with that object."""
-    rgb, truth = _placed_view(sim_profile_with, tmp_path, name, objects, places)
+    """The segmenter's instances in a scene of these objects set at (x, y, yaw) exactly (given its depth image, or
+    not): for each, the object it covers most, its kind and its overlap with that object."""
+    frame, truth = _placed_view(sim_profile_with, tmp_path, name, objects, places)
     out = []
-    for i in OfflineSegmenter().instances(rgb):
+    for i in OfflineSegmenter().instances(frame.rgb, frame.depth if with_depth else None):
         covered = max(truth, key=lambda n: (truth[n] & i.region.mask).sum())
         out.append((covered, i.kind, iou(i.region.mask, truth[covered])))
     return out
@@ -455,7 +456,8 @@ def test_a_pale_bottles_cap_in_the_light_is_the_bottles_not_the_pan_behind_it(si
         {"name": "bottle", "kind": "bottle", "color": "light_pink", "radius_m": 0.034, "height_m": 0.173},
     ]
     places = ([0.4086, 0.0175, -160.4], [0.6084, -0.0237, 131.4])
-    rgb, truth = _placed_view(sim_profile_with, tmp_path, "cap", objects, places)
+    frame, truth = _placed_view(sim_profile_with, tmp_path, "cap", objects, places)
+    rgb = frame.rgb
     found = {max(truth, key=lambda n: (truth[n] & i.region.mask).sum()): i for i in OfflineSegmenter().instances(rgb)}
     assert found["pan"].kind == "pan" and found["bottle"].kind == "bottle"
     assert (found["pan"].region.mask & truth["bottle"]).sum() < 20
@@ -470,7 +472,8 @@ def test_a_black_pan_that_meets_the_arm_in_the_image_is_found(sim_profile_with, 
     of arm, floor and pan reaches the image border (generated cases 5007 and 10125, where "the pan" matched no
     object). The black part of such a region is an object of its own."""
     pan = {"name": "pan", "kind": "pan", "color": "black", "radius_m": radius_m, "height_m": height_m}
-    rgb, truth = _placed_view(sim_profile_with, tmp_path, "black_pan", [pan], [place])
+    frame, truth = _placed_view(sim_profile_with, tmp_path, "black_pan", [pan], [place])
+    rgb = frame.rgb
     found = [i for i in OfflineSegmenter().instances(rgb) if iou(i.region.mask, truth["pan"]) > 0.9]
     assert [(i.kind, i.region.colour) for i in found] == [("pan", "black")]
 
@@ -503,3 +506,25 @@ def test_a_pale_lying_bottle_is_no_platform_and_a_small_ball_no_plate(sim_profil
     places = ([0.3158, 0.094, -115.55], [0.3905, -0.1032, 99.41], [0.418, -0.24, -2.8], [0.55, 0.25, -39.6])
     instances = _placed_instances(sim_profile_with, tmp_path, "pale", objects, places)
     assert _kinds_of_the_objects(instances) == {o["name"]: o["kind"] for o in objects}
+
+
+def test_depth_tells_a_dark_bowl_from_a_plate_and_an_open_chest_from_a_block(sim_profile_with, tmp_path):
+    """A dark bowl seen from above is a dark ring and a dark inside with no edges between them: by its outline a
+    plate (generated case 12067: 'the plate' matched it and the plate); an open chest's body, its lid of another
+    colour, a block (13078: 'the cube' matched two chests). The depth image tells: a container's inside lies
+    behind its rim, a plate is flat, a block's middle stands before its outline."""
+    objects = [
+        {"name": "bowl", "kind": "bowl", "color": "dark_blue", "radius_m": 0.089, "height_m": 0.08},
+        {"name": "plate", "kind": "plate", "color": "light_yellow", "radius_m": 0.084, "height_m": 0.013},
+        {"name": "cube", "kind": "box", "color": "dark_cyan", "size_m": [0.039, 0.044, 0.037]},
+        {"name": "chest", "kind": "lidded_box", "color": "green", "size_m": [0.1, 0.13, 0.071], "lid_open_deg": 89.6},
+    ]
+    objects[-1]["lid_color"] = "yellow"
+    places = ([0.2855, -0.1443, -28.18], [0.62, -0.05, -99.13], [0.4533, -0.1919, -61.47], [0.4964, 0.1927, 33.7])
+    instances = _placed_instances(sim_profile_with, tmp_path, "relief", objects, places, with_depth=True)
+    assert _kinds_of_the_objects(instances) == {"bowl": "bowl", "plate": "plate", "cube": "box"}
+    assert "lidded_box" in {kind for covered, kind, _ in instances if covered == "chest"}  # (its lid: a region apart)
+    frame, _ = _placed_view(sim_profile_with, tmp_path, "relief", objects, places)
+    seg = OfflineSegmenter()
+    for phrase in ("the plate", "the bowl", "the cube", "the chest"):
+        assert len(seg.segment(frame.rgb, phrase, frame.depth)) == 1, phrase

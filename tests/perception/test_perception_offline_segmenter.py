@@ -289,3 +289,24 @@ def test_a_scales_base_is_a_thin_strip_below_its_plate_even_in_pieces():
     assert ("red", "platform") in cut and not any(colour == "white" for colour, _ in cut)
     thick = {i.region.colour for i in seg.instances(plate_over(24, cut=False))}
     assert thick == {"white", "red"}
+
+
+@pytest.mark.parametrize(("bump_m", "reads"), [(0.05, "hollow"), (0.0, "flat"), (-0.02, "raised")])
+def test_relief_is_how_far_the_middle_lies_behind_the_outline(bump_m, reads):
+    """A disc on a slanted plane (depth 0.6-0.7 m, as a tilted camera sees the table), its middle pushed back (a
+    bowl's inside), left on the plane (a plate) or brought forward (a ball): the relief is measured against the
+    plane through the outline, whatever the slant; a middle with no depth reads nothing."""
+    from pipeline.perception.shape_cues import cues
+
+    v, u = np.mgrid[0:120, 0:160]
+    inverse = 1.0 / 0.6 - (v / 120.0) * (1.0 / 0.6 - 1.0 / 0.7) + 0.0005 * u  # a plane: affine in inverse depth
+    depth = (1.0 / inverse).astype(np.float32)
+    mask = (u - 80) ** 2 + (v - 60) ** 2 <= 30**2
+    middle = (u - 80) ** 2 + (v - 60) ** 2 <= 20**2
+    depth[middle] += bump_m
+    rgb = np.full((120, 160, 3), 60, np.uint8)
+    relief = cues(mask, rgb, depth).relief_m
+    assert relief == pytest.approx(bump_m, abs=0.002), reads
+    depth[(u - 80) ** 2 + (v - 60) ** 2 <= 25**2] = np.nan  # all but the outline's band
+    assert cues(mask, rgb, depth).relief_m is None
+    assert cues(mask, rgb).relief_m is None
