@@ -86,7 +86,10 @@ ENCLOSED_TOP = 0.8  # a region with its object's just above this share of its to
 CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 BLEND_SATURATION = 0.8  # a lid's pixel along its box this much less saturated than the lid is a blend of the two
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
-LID_RESTS_ON = 0.8  # ... and rests on it along at least this share of its width (it may overhang a little)
+LID_RESTS_ON = 0.8  # ... and rests on it along at least this share of its width (it may overhang a little) ...
+# ... or, where depth shows the two meet (_meets: a thing behind the box does not), this share: an open lid leaning
+# back, its box turned, shows a side edge rising from the hinge over a quarter of its width (12044, 12104)
+LID_RESTS_ON_MEETING = 0.5
 MEET_M = 0.03  # ... and, where depth is known, is this near the box in depth where they meet (a lid on its hinge: a
 # few mm; a bottle or a bowl behind the box: 15 cm and more)
 FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
@@ -400,25 +403,27 @@ def _attached_lid(
             and over >= 0.5 * (a1 - a0)
             and (b0 + b1) / 2 < middle
             and bool((i.region.mask & near).any())
-            and _resting_share(i.region.mask, near) >= LID_RESTS_ON
             and not _inside(i.region.mask, own)
-            and _meets(i.region.mask, own, depth_m)
+            and (meets := _meets(i.region.mask, own, depth_m)) is not False
+            and _resting_share(i.region.mask, near) >= (LID_RESTS_ON_MEETING if meets else LID_RESTS_ON)
         )
 
     return max((i for i in instances if i is not whole and lid_like(i)), key=lambda i: i.region.area, default=None)
 
 
-def _meets(mask: np.ndarray, own: np.ndarray, depth_m: np.ndarray | None) -> bool:
+def _meets(mask: np.ndarray, own: np.ndarray, depth_m: np.ndarray | None) -> bool | None:
     """Whether two regions touching in the image touch in the scene: the median depths along their shared border,
-    on either side, within MEET_M. True without depth, or with none known along the border (no evidence)."""
+    on either side, within MEET_M. None without depth, or with none known along the border (no evidence)."""
     if depth_m is None:
-        return True
+        return None
     border = np.ones((2 * ATTACHED_PX + 1,) * 2, np.uint8)
     near_own = mask & cv2.dilate(own.astype(np.uint8), border).astype(bool)
     near_mask = own & cv2.dilate(mask.astype(np.uint8), border).astype(bool)
     a, b = depth_m[near_own], depth_m[near_mask]
     a, b = a[np.isfinite(a)], b[np.isfinite(b)]
-    return not (len(a) and len(b)) or abs(float(np.median(a)) - float(np.median(b))) <= MEET_M
+    if not (len(a) and len(b)):
+        return None
+    return abs(float(np.median(a)) - float(np.median(b))) <= MEET_M
 
 
 def _resting_share(mask: np.ndarray, near: np.ndarray) -> float:

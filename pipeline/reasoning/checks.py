@@ -14,7 +14,7 @@ import numpy as np
 
 from pipeline.config import ChecksConfig
 from pipeline.grounding.verify import chromaticity
-from pipeline.perception.segmenter import Detection, Segmenter, box_of
+from pipeline.perception.segmenter import PART_BORDER_PX, Detection, Segmenter, box_of
 
 
 @dataclass(frozen=True)
@@ -150,12 +150,13 @@ def find_again(
     (changed_only: the target merged with what it was put on); or, for a part of another colour than its object
     (`mask_anchor`: a lid's box), by the part's own colour in the first image (a lid of another colour shut over its
     box hides the box's top, what is left of the box reads as another kind, and "the lid of the pink chest" names
-    nothing)."""
-    found = segmenter.segment(rgb, phrase, depth_m)
+    nothing). A part is found only on its object: a region away from the anchor is some other thing's (the shut
+    chest reads as a block and a small box elsewhere as the chest, 12104)."""
+    found = on_anchor(segmenter.segment(rgb, phrase, depth_m), mask_anchor)
     if found:
         return found, ""
     still = unchanged_pixels(rgb_init, rgb)
-    found = segmenter.segment(changed_only(rgb_init, rgb, mask_init, still), phrase, depth_m)
+    found = on_anchor(segmenter.segment(changed_only(rgb_init, rgb, mask_init, still), phrase, depth_m), mask_anchor)
     chroma0 = chromaticity(rgb_init[mask_init]).mean(axis=0)
     found = [  # new there, and of the target's colour in any light (not the table a moved object left uncovered)
         d
@@ -170,8 +171,17 @@ def find_again(
     colour, anchor_colour = segmenter.colours_of(rgb_init, mask_init, mask_anchor)
     if colour is None or colour == anchor_colour:
         return [], ""
-    found = segmenter.segment(rgb, colour, depth_m)
+    found = on_anchor(segmenter.segment(rgb, colour, depth_m), mask_anchor)
     return found, f"by its own colour, {colour}" if found else ""
+
+
+def on_anchor(found: list[Detection], mask_anchor: np.ndarray | None) -> list[Detection]:
+    """The regions that touch the part's object where it was (`mask_anchor`; all of them without one): a hinged
+    part stays on its object."""
+    if mask_anchor is None:
+        return found
+    near = cv2.dilate(mask_anchor.astype(np.uint8), np.ones((2 * PART_BORDER_PX + 1,) * 2, np.uint8)).astype(bool)
+    return [d for d in found if (d.mask & near).any()]
 
 
 def like_the_target(detections: list[Detection], rgb_init: np.ndarray, mask_init: np.ndarray, rgb: np.ndarray):
