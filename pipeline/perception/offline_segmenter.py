@@ -94,6 +94,7 @@ MEET_M = 0.03  # ... and, where depth is known, is this near the box in depth wh
 # few mm; a bottle or a bowl behind the box: 15 cm and more)
 FLAT_KINDS = ("box", "plate", "platform", "lidded_box")  # what a lid's region can look like
 RANK_MARGIN = 0.15  # with no region of the shape's kinds: those fitting it within this of the best
+TIE_MARGIN = 0.05  # a region fitting another kind within this of the named one is of either
 SHAPE_ONLY_FIT = 0.5  # ... and with no colour word, fitting it at least this well
 SHADE_RATIO = 0.8  # a light (dark) region's saturation (value) against the deepest (brightest) of its colour
 PILE_AREA_FRAC = 5e-3  # a pile of small parts (screws) is at most this share of the image ...
@@ -278,8 +279,8 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
         exact = [i for i in found if i.kind in kinds]
         fit = {id(i): max(i.scores[k] for k in kinds) for i in found}
         best = max(fit.values(), default=0.0)
-        if exact:
-            found = exact
+        if exact:  # those that read as another kind just as well only when no other does (a dark can, a block)
+            found = [i for i in exact if not _tied(i, kinds)] or exact
         elif want.colour is None:  # the shape alone decides: a region that fits it well, if none is of its kind,
             fits = [i for i in found if fit[id(i)] >= max(SHAPE_ONLY_FIT, best - RANK_MARGIN)]
             found = fits or [i for i in found if i.kind in _look_alike(kinds, LOOK_ALIKE)]  # else a look-alike
@@ -290,6 +291,14 @@ def _matching(instances: list[Instance], want: ObjectPhrase, loose: float) -> li
     if want.shade is not None and len(found) > 1:
         found = _of_shade(found, want.shade)
     return sorted(found, key=lambda i: (-_score(i, want), -i.region.area))
+
+
+def _tied(instance: Instance, kinds: frozenset[str]) -> bool:
+    """Whether a region fits some kind other than these (nor one they read as) within TIE_MARGIN of its best fit
+    to them: its shape does not tell which it is (a black can's shading unreadable: a block as much as a can)."""
+    others = set(instance.scores) - kinds - _look_alike(kinds, LOOK_ALIKE | BODY_APART)
+    best = max(instance.scores[k] for k in kinds)
+    return max((instance.scores[k] for k in others), default=0.0) >= best - TIE_MARGIN
 
 
 def _look_alike(kinds: frozenset[str], table: dict[str, frozenset[str]]) -> set[str]:

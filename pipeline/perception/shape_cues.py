@@ -269,10 +269,12 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     smooth = _within(c.edge_density, 0.0, 1.8, 0.8)  # no rim or inner walls inside
     hollow = _within(c.edge_density, 3.0, inf, 0.8)  # a rim and inner walls inside
     plain_block = _within(c.edge_density, 0.0, 2.2, 0.8)
+    round_smooth = smooth
     flat = _within(c.edge_density, 0.0, 2.6, 0.6)
     if c.relief_m is not None:  # ... with depth, the relief says it: only a container's inside lies behind its rim
         hollow = _within(c.relief_m, HOLLOW_RELIEF_M, inf, RELIEF_MARGIN_M)
-        smooth, plain_block = smooth * (1.0 - hollow), 1.0 - hollow  # (a cup's handle and rim are edges still)
+        # (a cup's handle and rim are edges still: a can's smoothness keeps them; a ball has neither)
+        smooth, plain_block, round_smooth = smooth * (1.0 - hollow), 1.0 - hollow, 1.0 - hollow
         flat = _within(c.relief_m, -FLAT_RELIEF_M, FLAT_RELIEF_M, RELIEF_MARGIN_M)
     round_outline = _within(c.corners, 7.5, inf, 1.0)
     plate_on_top = _plate_on_top(c, colour)
@@ -306,7 +308,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         * _within(c.aspect, 0.75, 1.1, 0.03)
         * _within(c.ellipse_iou, 0.94, 1.0, 0.04)
         * no_level_face
-        * smooth,
+        * round_smooth,
         "bowl": _within(c.elongation, 1.0, 1.2, 0.1)
         * _within(c.ellipse_iou, 0.92, 1.0, 0.04)
         * _within(c.aspect, 0.85, 1.2, 0.1)
