@@ -40,7 +40,7 @@ import numpy as np
 
 from pipeline.perception.colour_regions import ACHROMATIC, CHROMATIC, Region, hsv, regions
 from pipeline.perception.occlusion import occlusion_pieces
-from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, box_of, check_rgb
+from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, box_of, check_depth, check_rgb
 from pipeline.perception.shape_cues import SPECK_AREA_FRAC, classify, cues, two_shades
 
 COLOUR_WORDS: dict[str, str] = {c: c for c in (*CHROMATIC, *ACHROMATIC)} | {"grey": "gray", "violet": "purple"}
@@ -229,6 +229,7 @@ class OfflineSegmenter(Segmenter):
 
     def instances(self, rgb: np.ndarray, depth_m: np.ndarray | None = None) -> list[Instance]:
         """Every colour region of the image with its kind (told by its relief too where depth is given)."""
+        check_depth(depth_m, rgb, "offline segmenter")
         hsv_image = hsv(rgb)
         return [_instance(rgb, hsv_image, region, depth_m) for region in regions(rgb, self._min_area(rgb))]
 

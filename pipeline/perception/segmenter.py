@@ -80,6 +80,15 @@ def check_rgb(rgb: np.ndarray, who: str) -> None:
         raise ValueError(f"{who}: expected an (H, W, 3) uint8 RGB image, got {got}")
 
 
+def check_depth(depth_m: np.ndarray | None, rgb: np.ndarray, who: str) -> None:
+    """ValueError naming `who` unless `depth_m` is None or a float (H, W) image the size of `rgb`."""
+    if depth_m is None:
+        return
+    if not isinstance(depth_m, np.ndarray) or depth_m.shape != rgb.shape[:2] or depth_m.dtype.kind != "f":
+        got = f"{depth_m.dtype} {depth_m.shape}" if isinstance(depth_m, np.ndarray) else type(depth_m).__name__
+        raise ValueError(f"{who}: expected a float depth image of shape {rgb.shape[:2]} (metres), got {got}")
+
+
 class Segmenter(ABC):
     """Text-prompted instance segmentation."""
 

@@ -88,6 +88,7 @@ def cues(mask: np.ndarray, rgb: np.ndarray, depth_m: np.ndarray | None = None) -
     m = mask.astype(np.uint8)
     v, u = np.nonzero(mask)
     area = float(mask.sum())
+    extent = min(np.ptp(u), np.ptp(v)) + 1  # the smaller extent, in pixels
     contours, _ = cv2.findContours(m, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     outline = max(contours, key=cv2.contourArea)
     _, (rw, rh), _ = cv2.minAreaRect(outline)
@@ -111,12 +112,12 @@ def cues(mask: np.ndarray, rgb: np.ndarray, depth_m: np.ndarray | None = None) -
         edge_density=float((edges & inner).sum() / max(np.sqrt(area), 1.0)),
         light_plate=float(((sat[mask] < PLATE_MAX_SATURATION) & (val[mask] > PLATE_MIN_VALUE)).mean()),
         shade_ratio=float(np.percentile(val[mask], 10) / max(np.percentile(val[mask], 90), 1e-6)),
-        core_shade=_core_shade(mask, val, min(np.ptp(u), np.ptp(v)) + 1),
+        core_shade=_core_shade(mask, val, extent),
         **_body(m, np.ptp(u) + 1, np.ptp(v) + 1, area),
         area_frac=area / mask.size,
         wide_elongation=_wide_elongation(u, v),
         **_shading(mask, rgb),
-        relief_m=None if depth_m is None else _relief(mask, depth_m, min(np.ptp(u), np.ptp(v)) + 1),
+        relief_m=None if depth_m is None else _relief(mask, depth_m, extent),
     )
 
 
@@ -271,10 +272,12 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
     plain_block = _within(c.edge_density, 0.0, 2.2, 0.8)
     round_smooth = smooth
     flat = _within(c.edge_density, 0.0, 2.6, 0.6)
+    solid = 1.0  # no inside behind the outline (unknown without depth)
     if c.relief_m is not None:  # ... with depth, the relief says it: only a container's inside lies behind its rim
         hollow = _within(c.relief_m, HOLLOW_RELIEF_M, inf, RELIEF_MARGIN_M)
+        solid = 1.0 - hollow
         # (a cup's handle and rim are edges still: a can's smoothness keeps them; a ball has neither)
-        smooth, plain_block, round_smooth = smooth * (1.0 - hollow), 1.0 - hollow, 1.0 - hollow
+        smooth, plain_block, round_smooth = smooth * solid, solid, solid
         flat = _within(c.relief_m, -FLAT_RELIEF_M, FLAT_RELIEF_M, RELIEF_MARGIN_M)
     round_outline = _within(c.corners, 7.5, inf, 1.0)
     plate_on_top = _plate_on_top(c, colour)
@@ -345,7 +348,7 @@ def scores(c: Cues, colour: str) -> dict[str, float]:
         )
         * _shaded(c.ramp_share, 0.2, 1.0, 0.1)  # a side shaded across, not level faces
         * max(smooth, shaded_round),  # (a dark can's highlight band is edges inside, on a side that ramps)
-        "bottle": necked * _within(c.elongation, 1.9, 4.5, 0.3) * (1.0 - hollow if c.relief_m is not None else 1.0),
+        "bottle": necked * _within(c.elongation, 1.9, 4.5, 0.3) * solid,
     }
     # the tasks' objects; a speck (a screw) is nothing else, a bar with a handle (a brush) is no pan
     speck = _within(c.area_frac, 0.0, SPECK_AREA_FRAC, 2e-4) * _within(c.elongation, 1.6, inf, 0.3)

@@ -310,3 +310,11 @@ def test_relief_is_how_far_the_middle_lies_behind_the_outline(bump_m, reads):
     depth[(u - 80) ** 2 + (v - 60) ** 2 <= 25**2] = np.nan  # all but the outline's band
     assert cues(mask, rgb, depth).relief_m is None
     assert cues(mask, rgb).relief_m is None
+
+
+def test_a_depth_image_that_does_not_fit_the_colour_image_is_named():
+    img = scene()
+    with pytest.raises(ValueError, match=r"offline segmenter: expected a float depth image of shape \(120, 160\)"):
+        OfflineSegmenter().segment(img, "the red block", np.zeros((60, 80), np.float32))
+    with pytest.raises(ValueError, match="float depth image"):
+        OfflineSegmenter().segment(img, "the red block", np.zeros((120, 160), np.uint16))
