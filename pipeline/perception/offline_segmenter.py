@@ -86,6 +86,7 @@ ENCLOSED_TOP = 0.8  # a region with its object's just above this share of its to
 CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 BLEND_SATURATION = 0.8  # a lid's pixel along its box this much less saturated than the lid is a blend of the two
 LID_MIN_FRACTION = 0.15  # a lid covers at least this share of its object's region
+SHUT_LID_FRACTION = 0.5  # ... and a shut one seen from above, told by its face alone, at least this share
 LID_RESTS_ON = 0.8  # ... and rests on it along at least this share of its width (it may overhang a little) ...
 # ... or, where depth shows the two meet (_meets: a thing behind the box does not), this share: an open lid leaning
 # back, its box turned, shows a side edge rising from the hinge over a quarter of its width (12044, 12104)
@@ -455,11 +456,12 @@ def _top_face(rgb: np.ndarray, mask: np.ndarray) -> np.ndarray | None:
     value = np.ascontiguousarray(rgb.max(axis=2))
     edges = cv2.dilate(cv2.Canny(value, 15, 45), np.ones((2, 2), np.uint8)).astype(bool)
     n, comp = cv2.connectedComponents((mask & ~edges).astype(np.uint8), connectivity=4)
-    faces = [f for f in (comp == i for i in range(1, n)) if f.sum() >= 0.05 * mask.sum()]
-    large = [f for f in faces if f.sum() >= LID_MIN_FRACTION * mask.sum()]
-    if len(faces) < 2 or not large:  # one face is the whole object: no lid to tell from it
+    large = [f for f in (comp == i for i in range(1, n)) if f.sum() >= LID_MIN_FRACTION * mask.sum()]
+    if not large:
         return None
     face = min(large, key=lambda f: np.nonzero(f)[0].mean())
+    if face.sum() > (1.0 - LID_MIN_FRACTION) * mask.sum():  # one face is the whole object: no lid to tell from it
+        return None
     v, u = np.nonzero(face)
     columns = np.unique(u)
     bottom = np.array([v[u == c].max() for c in columns], np.float64)
@@ -468,4 +470,8 @@ def _top_face(rgb: np.ndarray, mask: np.ndarray) -> np.ndarray | None:
     lid = np.zeros_like(mask)
     above = rows <= a * cols + b + 1.0
     lid[rows[above], cols[above]] = True
-    return lid if LID_MIN_FRACTION * mask.sum() <= lid.sum() < 0.8 * mask.sum() else None
+    # the face alone where its edge is no line across the box: a lid drawn shut askew on it, most of what is seen
+    for part, least in ((lid, LID_MIN_FRACTION), (face, SHUT_LID_FRACTION)):
+        if least * mask.sum() <= part.sum() < 0.8 * mask.sum():
+            return part
+    return None
