@@ -10,8 +10,10 @@ from beyond the free edge, slanted hinge_approach_deg in front of the face, so a
 toward them since the capture is pushed on its way rather than landed on (straight along the push would put
 the pre-contact pose of a lid leaning toward the robot low and close to the arm's base, where it hardly
 reaches). They keep that orientation and follow the contact point's arc about the hinge
-to the goal angle, via poses at most hinge_step_deg apart, the last raised by hinge_end_lift_m so the fingers
-end clear of what the part closes on (a lid left a few degrees open there falls shut by its weight). Relative
+to the goal angle, via poses at most hinge_step_deg apart. The last ends the fingers as near the part's face at the
+goal as the scene's clearance allows (END_GAP_MIN_M up to hinge_end_max_gap_m): a stiff hinge holds a lid where
+the fingers leave it, and the standoff kept on the way left small lids 12-19 deg open; what the part closes on
+keeps them off a goal turned too far (an edited image's lid is shut a few degrees past its rim). Relative
 to the turning plate the fingers turn away from it, so the standoff kept from the face at the fingers' nearest
 corner is kept by the whole fingers (the hand, further back, is beyond the free edge of a part pushed near
 that edge).
@@ -20,6 +22,7 @@ that edge).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,6 +34,9 @@ from safety.geometry import turn_about
 
 MIN_EXTENT_M = 0.02  # a part shorter than this from its hinge has no free edge to push near
 LATERAL = 0.15  # off-centre contacts this fraction of the part's width along the hinge from its middle
+# the end pose's gaps off the seen face tried, in steps from the least: the pushed face is the unseen one, a
+# plate's thickness (a lid's, up to a centimetre) beyond, and the fingers never press into the part
+END_GAP_MIN_M, END_GAP_STEP_M = 0.012, 0.003
 
 
 class HingeError(ValueError):
@@ -72,13 +78,18 @@ def hinge_from_motion(T_base_motion: np.ndarray, max_slide_m: float, min_turn_de
 
 
 def arc_candidates(
-    points: np.ndarray, hinge: Hinge, cfg: ContactConfig, fingers_tcp: np.ndarray
+    points: np.ndarray,
+    hinge: Hinge,
+    cfg: ContactConfig,
+    fingers_tcp: np.ndarray,
+    clear: Callable[[np.ndarray], bool] = lambda T: True,
 ) -> tuple[list[Candidate], dict[str, int]]:
     """Arc pushes on a plate hinged along `hinge`: contact near the free edge, laterally centred and off-centre.
 
     points: the part's cloud (N, 3), base frame. fingers_tcp: the closed fingers' box corners (K, 3), TCP frame:
-    the nearest stays cfg.push_standoff_m from the pushed face all along the arc. The seen face is taken as the
-    pushed one: when the camera sees the other face, the standoff spans the plate's thickness.
+    the nearest stays cfg.push_standoff_m from the pushed face along the arc, and ends at the least gap whose TCP
+    pose `clear` accepts (the largest when none is). The seen face is taken as the pushed one: when the camera
+    sees the other face, the standoff spans the plate's thickness.
     """
     rel = points - hinge.point
     along = rel @ hinge.axis
@@ -99,20 +110,25 @@ def arc_candidates(
     slant = math.radians(cfg.hinge_approach_deg)
     back_off = math.cos(slant) * u - math.sin(slant) * v
     steps = max(1, math.ceil(math.degrees(hinge.angle_rad) / cfg.hinge_step_deg - 1e-6))
+
+    def pose(contact: np.ndarray, angle_rad: float, gap: float) -> np.ndarray:
+        """The TCP pose with the fingers' nearest corner `gap` off the face turned by angle_rad at `contact`."""
+        turn = hinge.turn(angle_rad)
+        into = turn[:3, :3] @ v  # the pushed face's inward normal, turned with the part
+        reach = float(np.max(fingers_tcp @ (R_tcp.T @ into)))
+        T = np.eye(4)
+        T[:3, :3] = R_tcp
+        T[:3, 3] = turn[:3, :3] @ contact + turn[:3, 3] - (gap + reach) * into
+        return T
+
+    gaps = np.arange(END_GAP_MIN_M, cfg.hinge_end_max_gap_m + 1e-9, END_GAP_STEP_M)
     out = []
     for lateral in (0.0, -LATERAL, LATERAL):
         contact = hinge.point + cfg.hinge_contact_fraction * extent * u + face * v
         contact = contact + (0.5 * (lo + hi) + lateral * (hi - lo)) * hinge.axis
-        poses = []
-        for k in range(steps + 1):
-            turn = hinge.turn(k * hinge.angle_rad / steps)
-            into = turn[:3, :3] @ v  # the pushed face's inward normal, turned with the part
-            reach = float(np.max(fingers_tcp @ (R_tcp.T @ into)))
-            T = np.eye(4)
-            T[:3, :3] = R_tcp
-            T[:3, 3] = turn[:3, :3] @ contact + turn[:3, 3] - (cfg.push_standoff_m + reach) * into
-            poses.append(T)
-        poses[-1][2, 3] += cfg.hinge_end_lift_m
+        poses = [pose(contact, k * hinge.angle_rad / steps, cfg.push_standoff_m) for k in range(steps)]
+        ends = [pose(contact, hinge.angle_rad, gap) for gap in gaps]
+        poses.append(next((T for T in ends if clear(T)), ends[-1]))
         centred = 1.0 - abs(lateral)
         down = float(np.clip(-R_tcp[2, 2], 0.0, 1.0))
         out.append(Candidate("hinge", poses[0], 0.0, 1.0, down, centred, tuple(poses[1:-1]), poses[-1], back_off))

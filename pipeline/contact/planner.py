@@ -28,7 +28,9 @@ the object motion it realises (ContactPlan.T_motion).
 
 from __future__ import annotations
 
+import math
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -129,7 +131,8 @@ def plan_contacts(
         else:
             g = robot.spec.gripper
             fingers = GripperBoxes(robot, 0.0).corners_tcp(g.min_width_m, g.finger_links)
-            candidates, why = arc_candidates(pts, hinge, cfg, fingers)
+            clear = _gate_clear(robot, cfg, scene, collision_world, g.min_width_m)
+            candidates, why = arc_candidates(pts, hinge, cfg, fingers, clear)
         rejected.update(why)
     else:
         shift = transform_points(T_base_motion, pts.mean(axis=0)[None])[0] - pts.mean(axis=0)
@@ -194,6 +197,24 @@ def plan_contacts(
         )
     )
     return ContactResult(plans, {k: v for k, v in rejected.items() if v}, total)
+
+
+def _gate_clear(
+    robot: RobotModel, cfg: ContactConfig, scene: np.ndarray, world, width_m: float
+) -> Callable[[np.ndarray], bool]:
+    """Whether the gripper at a TCP pose passes the gate's check against the table and the scene, as the gate sees
+    the scene: the octree cells (world.config.cloud_voxel_m, on a grid from the origin) its points fall in. A cell
+    lies within half its diagonal of its centre, so the boxes grown by that much more than the padding are checked
+    against the cells' centres: never passed where the gate refuses (the raw points with a margin were, by up to
+    a cell)."""
+    voxel = world.config.cloud_voxel_m if world is not None else 0.0
+    cells = scene if not voxel or not len(scene) else (np.unique(np.floor(scene / voxel), axis=0) + 0.5) * voxel
+    boxes = GripperBoxes(robot, cfg.collision_padding_m + voxel * math.sqrt(3.0) / 2.0)
+
+    def clear(T: np.ndarray) -> bool:
+        return boxes.lowest_z(T, width_m) >= 0.0 and not boxes.hits_points(T, width_m, cells)
+
+    return clear
 
 
 def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> list[np.ndarray]:

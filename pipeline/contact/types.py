@@ -56,8 +56,11 @@ class ContactConfig(StrictModel):
     hinge_approach_deg: float = Field(
         default=25.0, ge=0, le=90, description="arc push: approach line's slant off the part's face, 0 = along it"
     )
-    hinge_end_lift_m: float = Field(
-        default=0.01, ge=0, description="arc push: the last pose raised this much above the arc's end"
+    hinge_end_max_gap_m: float = Field(
+        default=0.04,
+        ge=0.012,
+        description="arc push: the fingers end at most this far off the part's face at the goal (the least the "
+        "scene's clearance allows)",
     )
     hinge_max_slide_m: float = Field(default=0.005, ge=0, description="hinge motion: largest slide along the axis")
     hinge_min_turn_deg: float = Field(default=5.0, ge=0, description="hinge motion: smallest turn worth a push")

@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pipeline.contact.gripper import GripperBoxes
-from pipeline.contact.hinge import HingeError, arc_candidates, hinge_from_motion
+from pipeline.contact.hinge import END_GAP_MIN_M, HingeError, arc_candidates, hinge_from_motion
 from pipeline.contact.planner import plan_contacts
 from pipeline.contact.types import ContactConfig
 from safety.geometry import transform_points
@@ -100,10 +100,41 @@ def test_arc_poses_follow_the_lid_from_open_to_just_above_closed(fingers):
         assert 0.75 * LID_M < radial < LID_M  # near the free edge
         assert c.T_contact[2, 2] < -0.95  # fingers along the lid (10 deg past vertical), pointing to the hinge
         assert c.T_contact[0, 0] > 0.9  # TCP x away from the base, as at home: no half turn of the wrist
-        lowest = transform_points(c.T_goal, fingers)[:, 2].min()  # just above the closed lid
-        assert lowest == pytest.approx(HINGE_POINT[2] + cfg.push_standoff_m + cfg.hinge_end_lift_m, abs=1e-6)
+        lowest = transform_points(c.T_goal, fingers)[:, 2].min()  # nothing under the lid: a lid's thickness above
+        assert lowest == pytest.approx(HINGE_POINT[2] + END_GAP_MIN_M, abs=1e-6)
     lateral = sorted(c.T_contact[1, 3] for c in candidates)
     assert lateral[0] < -0.015 and abs(lateral[1]) < 0.005 and lateral[2] > 0.015
+
+
+def test_the_arc_ends_as_near_the_shut_lid_as_the_gate_passes_over_the_rim_it_closes_on(robot):
+    """A stiff hinge holds a lid where the fingers leave it: the push ends at the least gap the gate passes over the
+    box's rim, which it sees as octree cells (the raw points with the padding alone put the fingers in a cell)."""
+    from safety.collision import CollisionWorld
+    from safety.config import SafetyConfig
+
+    safety = SafetyConfig()
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(0, LID_M, 4000), rng.uniform(-0.08, 0.08, 4000)
+    edge = rng.integers(0, 4, 4000)  # the four walls' top edges, under the shut lid's rim
+    x = np.where(edge == 0, 0.004, np.where(edge == 1, LID_M - 0.004, x))
+    y = np.where(edge == 2, -0.076, np.where(edge == 3, 0.076, y))
+    # the rim's top 0.2 mm above a cell's boundary (z = 7 cm): the cell it is in reaches a centimetre higher
+    rim = np.column_stack([x, y, rng.uniform(-0.01, 0.0002, 4000)]) + HINGE_POINT
+    rim = rim[np.isin(edge, (0, 1)) | (np.abs(rim[:, 1]) > 0.07)]
+    points, closing = open_lid(100.0)
+    world = CollisionWorld(robot, safety, points=rim, table=False)
+    cfg = ContactConfig(collision_padding_m=safety.padding_m)
+    result = plan_contacts(
+        points, rim, closing, robot, mode="hinge", config=cfg, collision_world=world, viewpoint=np.array([1.1, 0, 0.8])
+    )
+    assert result.ok, result.reason
+    g = robot.spec.gripper
+    fingers = GripperBoxes(robot, 0.0).corners_tcp(g.min_width_m, g.finger_links)
+    for plan in result.plans:
+        assert not world.in_collision(plan.q_goal, g.min_width_m)  # the gate passes the end
+        gap = transform_points(plan.T_goal, fingers)[:, 2].min() - HINGE_POINT[2]
+        # nearer than the standoff and lift it ended at before (a lid of 12 cm left 12 deg open), off the rim
+        assert safety.padding_m < gap < cfg.push_standoff_m + 0.01 - 0.003
 
 
 def test_planner_returns_reachable_arc_plans_and_refuses_a_slide(robot):
