@@ -209,7 +209,10 @@ class OfflineSegmenter(Segmenter):
         if seen_open:  # a lid is a chest's part: a box seen open has one,
             objects = [i for i in objects if _reads_open(i)]  # a plain-looking box only when none is open
         found = [
-            (whole, lid) for whole in objects for lid in [_lid(rgb, whole, instances, want, depth_m)] if lid is not None
+            (whole, lid)
+            for whole in objects
+            for lid in [_lid(rgb, whole, instances, want, depth_m, self._min_area(rgb))]
+            if lid is not None
         ]
         if not seen_open and len(found) > 1:  # shut chests look like boxes: of several with a lid, the chest
             largest = max(whole.region.area for whole, _ in found)  # outsizes blocks of its colour
@@ -359,14 +362,23 @@ def _detection(instance: Instance, want: ObjectPhrase, mask: np.ndarray) -> Dete
 
 
 def _lid(
-    rgb: np.ndarray, whole: Instance, instances: list[Instance], want: ObjectPhrase, depth_m: np.ndarray | None
+    rgb: np.ndarray,
+    whole: Instance,
+    instances: list[Instance],
+    want: ObjectPhrase,
+    depth_m: np.ndarray | None,
+    min_area: int,
 ) -> np.ndarray | None:
     """The lid of an object: a region of another colour attached to it from above, or else, for a lidded box
     (or a shut one, which looks like a plain box, when the phrase may name a lidded box), the topmost face of its
-    own region (a lid of the box's own colour)."""
+    own region (a lid of the box's own colour). Where depth is known, a thing of the lid's colour behind the box
+    that shares the lid's region in the image is cut off along the depth step (a blue chest behind a blue lid went
+    into the lid's mask, and the goal moved both)."""
     lid = _attached_lid(whole, instances, depth_m, any_shape=True)
     if lid is not None:  # less the pixels along the box where the two colours blend (washed out)
         mask = lid.region.mask & ~whole.region.mask
+        if depth_m is not None:
+            mask = _meeting_pieces(mask, whole.region.mask, depth_m, min_area)
         along = mask & cv2.dilate(whole.region.mask.astype(np.uint8), CROSS).astype(bool)
         _, sat, _ = hsv(rgb)
         return mask & ~(along & (sat < BLEND_SATURATION * np.median(sat[mask])))
@@ -435,6 +447,15 @@ def _meets(mask: np.ndarray, own: np.ndarray, depth_m: np.ndarray | None) -> boo
     if not (len(a) and len(b)):
         return None
     return abs(float(np.median(a)) - float(np.median(b))) <= MEET_M
+
+
+def _meeting_pieces(mask: np.ndarray, own: np.ndarray, depth_m: np.ndarray, min_area: int) -> np.ndarray:
+    """The pieces of `mask` (cut along depth steps) that touch `own` in the image and meet it in depth; all of
+    `mask` when it is one piece or none does."""
+    pieces = occlusion_pieces(mask, depth_m, min_area)
+    near = cv2.dilate(own.astype(np.uint8), np.ones((2 * ATTACHED_PX + 1,) * 2, np.uint8)).astype(bool)
+    meeting = [p for p in pieces if (p & near).any() and _meets(p, own, depth_m) is not False]
+    return np.logical_or.reduce(meeting) if 1 <= len(meeting) < len(pieces) else mask
 
 
 def _resting_share(mask: np.ndarray, near: np.ndarray) -> float:

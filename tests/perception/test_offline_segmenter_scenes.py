@@ -571,3 +571,22 @@ def test_a_shape_word_keeps_the_region_that_reads_only_as_its_kind_and_a_ball_is
     found = OfflineSegmenter().segment(frame.rgb, phrase, frame.depth)
     assert len(found) == 1, [d.label for d in found]
     assert iou(found[0].mask, truth[name]) > 0.7
+
+
+def test_a_lid_shares_no_pixels_with_a_chest_of_its_colour_behind_its_box(sim_profile_with, tmp_path):
+    """A blue lid open on a green chest and a light blue chest behind it are one region in the image: the lid is
+    cut off it where the depth steps (the goal moved both, and the contact plan turned 170 deg)."""
+    front = {"name": "front", "kind": "lidded_box", "color": "green", "size_m": [0.124, 0.146, 0.056]}
+    front |= {"xy_m": [0.5509, -0.2604], "yaw_deg": -7.13, "lid_open_deg": 89.9, "lid_color": "blue"}
+    back = {"name": "back", "kind": "lidded_box", "color": "light_blue", "size_m": [0.121, 0.144, 0.064]}
+    back |= {"xy_m": [0.2758, -0.2141], "yaw_deg": -43.15, "lid_open_deg": 98.2, "lid_color": "light_purple"}
+    path = tmp_path / "behind.yaml"
+    scene = {"name": "b", "objects": [front, back], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
+    path.write_text(yaml.safe_dump(scene))
+    _, camera = view(sim_profile_with, str(path))
+    with camera:
+        frame, truth = camera.read(), camera.object_masks()
+        lid = camera.body_mask("front_lid")
+    (found,) = OfflineSegmenter().segment(frame.rgb, "the lid of the green box", frame.depth)
+    assert (found.mask & truth["back"]).sum() < 0.02 * found.area_px
+    assert iou(found.mask, lid) > 0.6
