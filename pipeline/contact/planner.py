@@ -200,7 +200,7 @@ def plan_contacts(
 
 
 def _gate_clear(
-    robot: RobotModel, cfg: ContactConfig, scene: np.ndarray, world, width_m: float
+    robot: RobotModel, cfg: ContactConfig, scene: np.ndarray, world: CollisionWorld | None, width_m: float
 ) -> Callable[[np.ndarray], bool]:
     """Whether the gripper at a TCP pose passes the gate's check against the table and the scene, as the gate sees
     the scene: the octree cells (world.config.cloud_voxel_m, on a grid from the origin) its points fall in. A cell
