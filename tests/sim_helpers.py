@@ -70,6 +70,16 @@ def put_object(world: SimWorld, name: str, xyz_m: tuple[float, float, float], se
     world.step(settle_s)
 
 
+def write_scene(path, objects: list[dict]) -> str:
+    """A scene file of these objects placed exactly as given (no jitter), named by the file; its path, for the
+    profile's sim.scene."""
+    import yaml
+
+    scene = {"name": path.stem, "objects": objects, "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
+    path.write_text(yaml.safe_dump(scene))
+    return str(path)
+
+
 def write_can_and_scale(path) -> str:
     """A scene file: a white can beside a light red scale, whose weighing plate is white too (the can set on it is
     one white region with the plate); its path, for the profile's sim.scene."""

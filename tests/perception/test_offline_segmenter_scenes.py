@@ -13,7 +13,7 @@ from drivers.sim.generate import generate_case, phrases
 from drivers.types import RGBDFrame
 from pipeline.perception.offline_segmenter import OfflineSegmenter
 from pipeline.perception.segmenter import matches
-from sim_helpers import set_hinge
+from sim_helpers import set_hinge, write_scene
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -210,9 +210,7 @@ def _placed_view(sim_profile_with, tmp_path, name: str, objects: list[dict], pla
     """The capture of a scene of these objects set at (x, y, yaw) exactly, and each object's true mask."""
     for o, (x, y, yaw) in zip(objects, places, strict=True):
         o |= {"xy_m": [x, y], "yaw_deg": yaw}
-    path = tmp_path / f"{name}.yaml"
-    scene = {"name": name, "objects": objects, "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / f"{name}.yaml", objects)
     _, camera = view(sim_profile_with, str(path))
     with camera:
         return camera.read(), camera.object_masks()
@@ -266,9 +264,7 @@ def test_a_bottle_lying_behind_an_open_chest_is_a_bottle_not_the_chests_lid(sim_
     chest |= {"xy_m": [0.579, -0.07], "yaw_deg": -5.6, "lid_open_deg": 93.0}
     bottle = {"name": "bottle", "kind": "bottle", "radius_m": 0.031, "height_m": 0.217, "color": "dark_yellow"}
     bottle |= {"xy_m": [0.332, -0.014], "yaw_deg": -89.5, "lying": True}
-    path = tmp_path / "behind.yaml"
-    scene = {"name": "behind", "objects": [chest, bottle], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / "behind.yaml", [chest, bottle])
     _, camera = view(sim_profile_with, str(path))
     with camera:
         rgb, truth = camera.read().rgb, camera.object_masks()
@@ -287,9 +283,7 @@ def test_a_block_half_hidden_behind_a_chest_of_its_colour_is_the_block_not_the_c
     chest |= {"xy_m": [0.57, 0.095], "yaw_deg": -29.5, "lid_open_deg": 94.0, "lid_color": "dark_red"}
     block = {"name": "block", "kind": "box", "size_m": [0.047, 0.062, 0.056], "color": "pink"}
     block |= {"xy_m": [0.369, 0.095], "yaw_deg": -33.0}
-    path = tmp_path / "hidden.yaml"
-    scene = {"name": "hidden", "objects": [chest, block], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / "hidden.yaml", [chest, block])
     _, camera = view(sim_profile_with, str(path))
     with camera:
         rgb, truth = camera.read().rgb, camera.object_masks()
@@ -312,9 +306,7 @@ def test_a_thing_standing_behind_an_open_chest_is_no_lid_where_depth_shows_it_fa
     meets its box within millimetres. With the depth, the lid is the chest's own and the thing is found as itself."""
     chest = {"name": "chest", "kind": "lidded_box", "size_m": [0.108, 0.132, 0.072], "color": "gray"}
     chest |= {"xy_m": [0.57, -0.16], "yaw_deg": 19.6, "lid_open_deg": 100.8, "lid_color": "gray"}
-    path = tmp_path / "behind.yaml"
-    scene = {"name": "behind", "objects": [chest, {"name": "thing", **behind}]}
-    path.write_text(yaml.safe_dump(scene | {"randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}))
+    path = write_scene(tmp_path / "behind.yaml", [chest, {"name": "thing", **behind}])
     _, camera = view(sim_profile_with, str(path))
     with camera:
         frame, truth = camera.read(), camera.object_masks()
@@ -334,9 +326,7 @@ def test_an_open_chest_that_reads_as_a_dustpan_as_well_has_its_lid_found(sim_pro
     with a raised back) and a chest confidently: the lid of the box is still its lid."""
     chest = {"name": "chest", "kind": "lidded_box", "size_m": [0.123, 0.165, 0.066], "color": "dark_red"}
     chest |= {"xy_m": [0.4705, -0.2461], "yaw_deg": -42.35, "lid_open_deg": 81.9}
-    path = tmp_path / "dustpan_like.yaml"
-    scene = {"name": "d", "objects": [chest], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / "dustpan_like.yaml", [chest])
     _, camera = view(sim_profile_with, str(path))
     with camera:
         frame = camera.read()
@@ -354,9 +344,7 @@ def test_a_pan_whose_washed_out_handle_reads_apart_is_the_pan_a_bowl_alone_would
     pan = {"name": "pan", "kind": "pan", "color": "light_pink", "radius_m": 0.095, "height_m": 0.038}
     pan |= {"xy_m": [0.5294, 0.3054], "yaw_deg": 159.82}
     ball = {"name": "ball", "kind": "sphere", "color": "light_green", "radius_m": 0.039, "xy_m": [0.315, 0.2364]}
-    path = tmp_path / "pan.yaml"
-    scene = {"name": "p", "objects": [pan, ball], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / "pan.yaml", [pan, ball])
     _, camera = view(sim_profile_with, str(path))
     with camera:
         frame, truth = camera.read(), camera.object_masks()
@@ -375,9 +363,7 @@ def test_a_bottles_body_apart_from_its_neck_reads_as_a_can_and_is_still_the_bott
     can = {"name": "body", "kind": "cylinder", "lying": True, "color": "cyan", "radius_m": 0.03, "height_m": 0.12}
     can |= {"xy_m": [0.45, 0.05], "yaw_deg": 30.0}
     neck = {"name": "neck", "kind": "box", "color": "cyan", "size_m": [0.02, 0.018, 0.016], "xy_m": [0.55, -0.12]}
-    path = tmp_path / "bottle_apart.yaml"
-    scene = {"name": "b", "objects": [can, neck], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / "bottle_apart.yaml", [can, neck])
     _, camera = view(sim_profile_with, str(path))
     with camera:
         frame, truth = camera.read(), camera.object_masks()
@@ -580,9 +566,7 @@ def test_a_lid_shares_no_pixels_with_a_chest_of_its_colour_behind_its_box(sim_pr
     front |= {"xy_m": [0.5509, -0.2604], "yaw_deg": -7.13, "lid_open_deg": 89.9, "lid_color": "blue"}
     back = {"name": "back", "kind": "lidded_box", "color": "light_blue", "size_m": [0.121, 0.144, 0.064]}
     back |= {"xy_m": [0.2758, -0.2141], "yaw_deg": -43.15, "lid_open_deg": 98.2, "lid_color": "light_purple"}
-    path = tmp_path / "behind.yaml"
-    scene = {"name": "b", "objects": [front, back], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / "behind.yaml", [front, back])
     _, camera = view(sim_profile_with, str(path))
     with camera:
         frame, truth = camera.read(), camera.object_masks()

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-import yaml
 
 from pipeline.perception.offline_segmenter import OfflineSegmenter
 from pipeline.perception.segmenter import Detection, attached_to, box_of
+from sim_helpers import write_scene
 
 
 def _region(v0: int, v1: int, u0: int, u1: int) -> Detection:
@@ -36,9 +36,7 @@ def test_close_the_chest_takes_the_chest_whose_lid_it_is_not_a_bowl_behind_it(si
     chest |= {"xy_m": [0.5306, -0.1254], "yaw_deg": -20.76, "lid_open_deg": 87.2}
     bowl = {"name": "bowl", "kind": "bowl", "color": "light_cyan", "radius_m": 0.065, "height_m": 0.053}
     bowl |= {"xy_m": [0.2955, -0.1525], "yaw_deg": -40.6}
-    path = tmp_path / "behind.yaml"
-    scene = {"name": "b", "objects": [chest, bowl], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / "behind.yaml", [chest, bowl])
     profile = sim_profile_with({"sim": {"scene": str(path)}})
     with SimCamera(SimWorld(profile.sim, profile.camera), seed=0) as camera:
         frame, truth = camera.read(), camera.object_masks()

@@ -7,11 +7,9 @@ from __future__ import annotations
 
 import math
 
-import yaml
-
 from pipeline.perception.offline_segmenter import OfflineSegmenter
 from pipeline.reasoning.checks import find_again
-from sim_helpers import set_hinge
+from sim_helpers import set_hinge, write_scene
 
 
 def _open_and_shut(sim_profile_with, tmp_path, lid_color: str | None, chest: dict | None = None, others=()):
@@ -22,9 +20,7 @@ def _open_and_shut(sim_profile_with, tmp_path, lid_color: str | None, chest: dic
         "lid_open_deg": 101.9,
     }
     chest = {"name": "chest", "kind": "lidded_box"} | chest | ({"lid_color": lid_color} if lid_color else {})
-    path = tmp_path / "chest.yaml"
-    scene = {"name": "c", "objects": [chest, *others], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / "chest.yaml", [chest, *others])
     profile = sim_profile_with({"sim": {"scene": str(path)}})
     world = SimWorld(profile.sim, profile.camera)
     with SimCamera(world, seed=0) as camera:

@@ -81,15 +81,12 @@ def test_a_lid_of_its_chests_shade_drawn_shut_askew_is_found_in_the_goal(sim_pro
     """The editor draws a shut lid of a shade of its chest's colour on the chest's top, offset from it: in the goal
     the lid face is the chest region's one large face, its lower edge no line across the box (the goal was refused
     three times: 'lid of the red box' missing from the candidate)."""
-    import yaml
-
     from drivers.sim import SimCamera, SimWorld
+    from sim_helpers import write_scene
 
     chest = {"name": "chest", "kind": "lidded_box", "size_m": [0.103, 0.154, 0.052], "xy_m": [0.6154, -0.0572]}
     chest |= {"yaw_deg": 17.81, "lid_open_deg": 104.9}
-    path = tmp_path / "chest.yaml"
-    scene = {"name": "c", "objects": [chest], "randomise": {"xy_jitter_m": 0.0, "yaw_jitter_deg": 0.0}}
-    path.write_text(yaml.safe_dump(scene))
+    path = write_scene(tmp_path / "chest.yaml", [chest])
     profile = sim_profile_with({"sim": {"scene": str(path)}})
     with SimCamera(SimWorld(profile.sim, profile.camera), seed=0) as camera:
         frame = camera.read().with_extrinsics(camera.T_base_camera)
