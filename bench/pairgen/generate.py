@@ -67,6 +67,7 @@ class RaycastPair:
     object_kind: str
     motion_kind: str
     symmetry: TrueSymmetry
+    shape_symmetry: TrueSymmetry  # the shape's alone, whatever its print: no reported symmetry may go beyond it
     size_m: float
     seed: int
     index: int
@@ -75,6 +76,16 @@ class RaycastPair:
     @property
     def object_name(self) -> str:
         return f"{self.object_kind}_{self.index}"
+
+
+def shape_only_symmetry(shape: Shape) -> TrueSymmetry:
+    """The turns the shape alone cannot show, as a TrueSymmetry (what a uniform print would give)."""
+    s = shape.symmetry
+    if s.ball:
+        return TrueSymmetry(np.eye(3)[None], ball=True)
+    if s.revolution:
+        return TrueSymmetry(np.eye(3)[None], axis=np.array([0.0, 0.0, 1.0]), flip=s.flip)
+    return TrueSymmetry(s.rotations)
 
 
 def true_symmetry(shape: Shape, material: Material, seen: np.ndarray, rng: np.random.Generator) -> TrueSymmetry:
@@ -278,6 +289,7 @@ def _attempt(rng: np.random.Generator, seed: int, index: int, kind: str, motion:
         object_kind=kind,
         motion_kind=motion,
         symmetry=true_symmetry(shape, target_material, seen_in_goal, rng),
+        shape_symmetry=shape_only_symmetry(shape),
         size_m=shape.size_m,
         seed=seed,
         index=index,

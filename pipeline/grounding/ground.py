@@ -17,6 +17,7 @@ from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.hypotheses import ball_hypotheses, face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.prepare import Prepared, prepare, refuse
+from pipeline.grounding.seen_symmetry import seen_symmetry
 from pipeline.grounding.select import select_motion
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
@@ -127,6 +128,9 @@ def ground(
             "threshold_m": threshold,
             **({"hint_taken": True} if hinted else {}),
         },
+        symmetry=seen_symmetry(
+            view0.cloud, view0.normals, [(inp.rgb0, inp.mask0, pp.points0), (inp.rgb1, inp.mask1, pp.points1)]
+        ),
         **common,
     )
 

@@ -50,6 +50,27 @@ class GroundingConfig(StrictModel):
 
 
 @dataclass(frozen=True)
+class SeenSymmetry:
+    """The turns about `centre` (camera frame, as first seen) that the images cannot show (seen_symmetry.py):
+    `kind` none, ball (every turn), revolution (every turn about `axis`), revolution_ends_alike (also end for
+    end), box (`rotations`, (K, 3, 3), identity among them); `shape_kind` is the shape's own, before a print
+    showing on the object made it none."""
+
+    kind: str
+    centre: np.ndarray
+    axis: np.ndarray | None = None
+    rotations: np.ndarray | None = None
+    shape_kind: str = "none"
+
+    @property
+    def label(self) -> str:
+        if self.kind == "box" and self.rotations is not None:
+            return f"box: {len(self.rotations)} turns"
+        printed = " (printed)" if self.kind == "none" and self.shape_kind != "none" else ""
+        return self.kind + printed
+
+
+@dataclass(frozen=True)
 class ObjectMotion:
     """Rigid motion of the target object: x_goal = R @ x_init + t (camera frame), plus how much to trust it.
 
@@ -70,6 +91,7 @@ class ObjectMotion:
     object_size_m: float = float("nan")
     T_base_camera: np.ndarray | None = None
     details: dict = field(default_factory=dict)
+    symmetry: SeenSymmetry | None = None  # turns the images cannot show (accepted non-hinged motions)
 
     @property
     def T_camera(self) -> np.ndarray:

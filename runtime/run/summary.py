@@ -51,6 +51,7 @@ class MotionRecord(Section):
     T_base_motion: list[list[float]] | None = None  # with a calibration, when ok
     translation_base_m: list[float] | None = None
     adjusted: str | None = None  # why the registration's motion was changed (see ADJUSTMENTS)
+    symmetry: str | None = None  # the turns the images cannot show (pipeline.grounding.seen_symmetry), when ok
 
     @classmethod
     def of(cls, motion: ObjectMotion) -> MotionRecord:
@@ -69,6 +70,7 @@ class MotionRecord(Section):
             T_base_motion=None if T_base is None else T_base.tolist(),
             translation_base_m=None if T_base is None else T_base[:3, 3].tolist(),
             adjusted="; ".join(motion.details[k] for k in ADJUSTMENTS if k in motion.details) or None,
+            symmetry=motion.symmetry.label if motion.symmetry is not None else None,
         )
 
 

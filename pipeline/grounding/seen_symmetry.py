@@ -1,0 +1,192 @@
+"""The turns of an object that neither its shape nor its print can show, reported with every grounded motion.
+
+A registration of a uniform cube is free to answer any of its 24 quarter-turn twins, a uniform box with a square
+cross-section any of 8, a plain can any spin about its axis: the images hold nothing to tell them apart. So the
+motion is given with its symmetry, and what consumes it (the benchmark, a planner, a verification) knows which turns
+were not measured. The shape comes from the initial points (a ball, a body of revolution and whether its ends look
+alike, a box and which of its sides are equal); a print seen on the object in either image (a texture, a decal, a
+label: fine detail of brightness or hue standing out of the image's noise) shows every turn, and the symmetry is
+then none.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from pipeline.grounding.compare import object_symmetry
+from pipeline.grounding.hypotheses import AXIS_MAPS, face_frame
+from pipeline.grounding.types import SeenSymmetry
+
+SAME_SIDE_M = 0.005  # a box's sides this close are one length (the simulator truth's own rule)
+BOX_FACE_TOL_REL = 0.03  # a box's seen points lie this close to its faces (share of its size) ...
+BOX_FACE_SHARE = 0.85  # ... this many of them
+# a body of revolution whole: the side wall's points (normals off the axis) lie within REVOLUTION_TOL_REL of the
+# object's size (at least REVOLUTION_TOL_M) of their slice's radius, REVOLUTION_SHARE of them: a pan's or a mug's
+# handle, which the axis fit rightly ignores, breaks it
+REVOLUTION_TOL_REL = 0.04
+REVOLUTION_TOL_M = 0.003
+REVOLUTION_SHARE = 0.97
+SLICE_M = 0.005
+BALL_NORMAL_DEG = 10.0  # a ball's normals point away from its centre: this close, BALL_NORMAL_SHARE of them
+BALL_NORMAL_SHARE = 0.9  # (a bowl's inside lies on a sphere too, its normals pointing in)
+BOX_FACE_FILL = 0.88  # each seen face fills its rectangle this well (a disc fills pi/4 of it)
+# a print: neighbouring pixels PRINT_STEP_PX apart on one smooth patch of surface (normals within
+# SAME_NORMAL_DEG, depths within SAME_SURFACE_M) that differ in log brightness or chromaticity beyond
+# PRINT_CONTRAST (3.5 times what a sensor's noise of 2-3 levels in 255 leaves on a dark object after PRINT_BLUR_PX),
+# on PRINT_SHARE of such pairs: a texture's edges, a decal's rim, a label's band. Shading differs little between
+# neighbours whose normals agree, and creases (normals apart) are not compared.
+PRINT_STEP_PX = 3
+PRINT_BLUR_PX = 1.0
+SAME_NORMAL_DEG = 4.0
+SAME_SURFACE_M = 0.01
+PRINT_CONTRAST = (0.06, 0.03)  # log brightness, chromaticity
+PRINT_SHARE = 0.015
+PRINT_OUTLINE_PX = 3  # the object's edge against what is behind it is no print
+NORMAL_SMOOTH_PX = 2.0
+DARK = 30.0  # chromaticity is read where the channels sum to at least this (of 765)
+
+
+def seen_symmetry(
+    points0: np.ndarray, normals0: np.ndarray, views: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+) -> SeenSymmetry:
+    """The symmetry of the object whose initial points (N, 3, camera frame) and normals are given, seen in `views`
+    (rgb uint8 (H, W, 3), object mask (H, W), point map (H, W, 3) with NaN where unknown): none when a print shows
+    on it in any view."""
+    shape = shape_symmetry(points0, normals0)
+    if shape.kind != "none" and any(shows_print(*view) for view in views):
+        return SeenSymmetry("none", shape.centre, shape_kind=shape.kind)
+    return shape
+
+
+def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:
+    """What the seen points' shape alone cannot show: a ball, a body of revolution, a box's equal sides, or none."""
+    P = np.asarray(points, dtype=np.float64)
+    revolution = object_symmetry(P)
+    if revolution is not None and revolution.axis is None:
+        if not _radial_normals(P, normals, revolution.centre):
+            return SeenSymmetry("none", np.median(P, axis=0))
+        return SeenSymmetry("ball", revolution.centre, shape_kind="ball")
+    if revolution is not None and _whole_revolution(P, normals, revolution.centre, revolution.axis):
+        kind = "revolution_ends_alike" if revolution.ends_alike else "revolution"
+        return SeenSymmetry(kind, revolution.centre, axis=revolution.axis, shape_kind=kind)
+    box = _box_turns(P, normals)
+    if box is not None:
+        centre, turns = box
+        if len(turns) > 1:
+            return SeenSymmetry("box", centre, rotations=turns, shape_kind="box")
+    return SeenSymmetry("none", np.median(P, axis=0))
+
+
+def _radial_normals(points: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> bool:
+    """Whether the normals point away from `centre`, as a ball's do (see BALL_NORMAL_SHARE)."""
+    radial = points - centre
+    radial /= np.maximum(np.linalg.norm(radial, axis=1, keepdims=True), 1e-9)
+    cos = np.einsum("ij,ij->i", radial, normals)
+    return bool(np.mean(cos > np.cos(np.radians(BALL_NORMAL_DEG))) >= BALL_NORMAL_SHARE)
+
+
+def _whole_revolution(points: np.ndarray, normals: np.ndarray, point: np.ndarray, axis: np.ndarray) -> bool:
+    """Whether the side wall's points all lie on the surface of revolution about the axis (see REVOLUTION_SHARE)."""
+    side = np.abs(normals @ axis) < 0.7  # a cap's disc faces along the axis
+    if side.sum() < 20:
+        return False
+    off = points[side] - point
+    along = off @ axis
+    radial = np.linalg.norm(off - np.outer(along, axis), axis=1)
+    index = np.floor((along - along.min()) / SLICE_M).astype(int)
+    deviation = np.empty(len(radial))
+    for k in np.unique(index):
+        in_slice = index == k
+        deviation[in_slice] = np.abs(radial[in_slice] - np.median(radial[in_slice]))
+    tol = max(REVOLUTION_TOL_M, REVOLUTION_TOL_REL * float(np.linalg.norm(np.ptp(points, axis=0))))
+    return bool(np.mean(deviation <= tol) >= REVOLUTION_SHARE)
+
+
+def _box_turns(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(centre, (K, 3, 3) camera-frame turns about it that map the box onto itself) when the points lie on a box."""
+    F = face_frame(normals)
+    if F is None:
+        return None
+    local = points @ F
+    lo, hi = np.percentile(local, [1, 99], axis=0)
+    sides = hi - lo
+    size = float(np.linalg.norm(sides))
+    to_face = np.minimum(np.abs(local - lo), np.abs(local - hi)).min(axis=1)
+    if np.mean(to_face <= BOX_FACE_TOL_REL * size) < BOX_FACE_SHARE or not _rectangular_faces(local, normals @ F):
+        return None
+    keeps = [
+        P for P in AXIS_MAPS if np.all(np.abs(sides - sides[np.argmax(np.abs(P), axis=1)]) <= SAME_SIDE_M)
+    ]  # P maps axis j to axis argmax|P[j]|: a turn of the box onto itself when those sides are equal
+    return F @ ((lo + hi) / 2), np.array([F @ P @ F.T for P in keeps])
+
+
+def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
+    """Whether each face seen (points whose normal is along a frame axis) fills its rectangle in the face's plane
+    (BOX_FACE_FILL): a disc, a pan's bottom, a can's cap do not."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    seen = 0
+    for k in range(3):
+        face = np.abs(local_normals[:, k]) > np.cos(np.radians(12.0))
+        if face.sum() < 30:
+            continue
+        flat = np.delete(local[face], k, axis=1)
+        lo, hi = np.percentile(flat, [1, 99], axis=0)
+        area = float(np.prod(hi - lo))
+        try:
+            hull = float(ConvexHull(np.clip(flat, lo, hi)).volume)
+        except QhullError:
+            return False
+        if area <= 0 or hull < BOX_FACE_FILL * area:
+            return False
+        seen += 1
+    return seen > 0
+
+
+def shows_print(rgb: np.ndarray, mask: np.ndarray, points: np.ndarray) -> bool:
+    """Whether the object (mask) shows a print in the image (see PRINT_CONTRAST), read off pairs of neighbouring
+    pixels on one smooth patch of its surface (points: the view's point map)."""
+    rows, cols = np.nonzero(mask)
+    if len(rows) == 0:
+        return False
+    margin = int(3 * max(PRINT_BLUR_PX, NORMAL_SMOOTH_PX)) + 1  # the object's box, with room for the smoothing
+    box = (
+        slice(max(rows.min() - margin, 0), rows.max() + margin + 1),
+        slice(max(cols.min() - margin, 0), cols.max() + margin + 1),
+    )
+    rgb, mask, points = rgb[box], mask[box], points[box]
+    inside = cv2.erode(np.asarray(mask, np.uint8), np.ones((2 * PRINT_OUTLINE_PX + 1,) * 2, np.uint8)).astype(bool)
+    inside &= np.isfinite(points).all(axis=2)
+    if inside.sum() < 50:
+        return False
+    f = cv2.GaussianBlur(np.asarray(rgb, np.float32), (0, 0), PRINT_BLUR_PX)
+    total = f.sum(axis=2)
+    log_brightness = np.log(total / 3.0 + 10.0)
+    chroma = f[..., :2] / np.maximum(total, DARK)[..., None]
+    normals = _normals(points)
+    k = PRINT_STEP_PX
+    same, printed = 0, 0
+    for (a0, a1), (b0, b1) in (((slice(None), slice(None, -k)), (slice(None), slice(k, None))),
+                               ((slice(None, -k), slice(None)), (slice(k, None), slice(None)))):  # fmt: skip
+        pair = inside[a0, a1] & inside[b0, b1]
+        pair &= (normals[a0, a1] * normals[b0, b1]).sum(axis=2) > np.cos(np.radians(SAME_NORMAL_DEG))
+        pair &= np.abs(points[a0, a1, 2] - points[b0, b1, 2]) < SAME_SURFACE_M
+        step = np.abs(log_brightness[a0, a1] - log_brightness[b0, b1]) > PRINT_CONTRAST[0]
+        step |= np.abs(chroma[a0, a1] - chroma[b0, b1]).max(axis=2) > PRINT_CONTRAST[1]
+        same += int(pair.sum())
+        printed += int((pair & step).sum())
+    return same >= 50 and printed >= PRINT_SHARE * same
+
+
+def _normals(points: np.ndarray) -> np.ndarray:
+    """Unit normals (H, W, 3) of a point map from its smoothed image-space derivatives (NaN where unknown)."""
+    P = np.where(np.isfinite(points), points, 0.0).astype(np.float32)
+    w = np.isfinite(points).all(axis=2).astype(np.float32)
+    den = cv2.GaussianBlur(w, (0, 0), NORMAL_SMOOTH_PX)[..., None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        P = cv2.GaussianBlur(P * w[..., None], (0, 0), NORMAL_SMOOTH_PX) / den
+    du, dv = np.gradient(P, axis=1), np.gradient(P, axis=0)
+    n = np.cross(du, dv)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return n / np.linalg.norm(n, axis=2, keepdims=True)

@@ -1,0 +1,156 @@
+"""The symmetry reported with a grounded motion: the shape's (a ball, a body of revolution, a box's equal sides)
+unless a print shows on the object, and the benchmark's scoring modulo it, never beyond the shape's own."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from pipeline.grounding.seen_symmetry import seen_symmetry, shape_symmetry, shows_print
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # bench/ is not an installed package
+
+from bench.grounding import as_true_symmetry
+from bench.pairgen.generate import TrueSymmetry
+from bench.pairgen.scoring import reported_rotation_error_deg
+
+CAMERA_AT = np.array([0.0, 0.0, 0.0])
+TOWARD = Rotation.from_euler("xyz", [35, -25, 10], degrees=True).as_matrix()  # the object as the camera sees it
+
+
+def _seen(points: np.ndarray, normals: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points and normals turned to face the camera from `at` (camera frame), those facing it kept."""
+    P, N = points @ TOWARD.T + at, normals @ TOWARD.T
+    facing = np.einsum("ij,ij->i", N, CAMERA_AT - P) > 0
+    return P[facing], N[facing]
+
+
+def _box(sides: tuple[float, float, float], rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    half = np.asarray(sides) / 2
+    pts, nrm = [], []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            p = rng.uniform(-half, half, (1500, 3))
+            p[:, axis] = sign * half[axis]
+            n = np.zeros((1500, 3))
+            n[:, axis] = sign
+            pts.append(p)
+            nrm.append(n)
+    return _seen(np.vstack(pts), np.vstack(nrm), np.array([0.0, 0.0, 0.8]))
+
+
+def _cylinder(radius: float, length: float, rng: np.random.Generator, handle: bool = False):
+    a = rng.uniform(0, 2 * np.pi, 6000)
+    z = rng.uniform(-length / 2, length / 2, 6000)
+    p = np.column_stack([radius * np.cos(a), radius * np.sin(a), z])
+    n = np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)])
+    if handle:  # a bar sticking out sideways, as a pan's or a mug's handle
+        h = np.column_stack([rng.uniform(radius, 2.2 * radius, 1500), rng.uniform(-0.006, 0.006, 1500), np.zeros(1500)])
+        h[:, 2] = rng.uniform(-0.006, 0.006, 1500)
+        p, n = np.vstack([p, h]), np.vstack([n, np.tile([0.0, 0.0, 1.0], (1500, 1))])
+    return _seen(p, n, np.array([0.0, 0.0, 0.8]))
+
+
+def test_a_uniform_box_is_reported_with_the_turns_its_equal_sides_allow():
+    rng = np.random.default_rng(0)
+    assert len(shape_symmetry(*_box((0.05, 0.08, 0.11), rng)).rotations) == 4
+    assert len(shape_symmetry(*_box((0.06, 0.06, 0.11), rng)).rotations) == 8
+    cube = shape_symmetry(*_box((0.07, 0.07, 0.07), rng))
+    assert cube.kind == "box" and len(cube.rotations) == 24
+    for R in cube.rotations:  # each maps the seen cube's points onto its surface again
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-9)
+
+
+def test_a_body_of_revolution_is_reported_by_its_axis_and_a_handle_breaks_it():
+    rng = np.random.default_rng(1)
+    can = shape_symmetry(*_cylinder(0.03, 0.12, rng))
+    assert can.kind in ("revolution", "revolution_ends_alike")
+    assert abs(abs(can.axis @ (TOWARD @ [0.0, 0.0, 1.0])) - 1) < 0.01
+    assert shape_symmetry(*_cylinder(0.05, 0.04, rng, handle=True)).kind == "none"
+
+
+def test_a_flat_disc_with_a_rim_is_no_box():
+    rng = np.random.default_rng(5)
+    r = 0.09 * np.sqrt(rng.random(12000))
+    a = rng.uniform(0, 2 * np.pi, 12000)
+    top = np.column_stack([r * np.cos(a), r * np.sin(a), np.zeros(12000)])
+    b = rng.uniform(0, 2 * np.pi, 1500)
+    rim = np.column_stack([0.09 * np.cos(b), 0.09 * np.sin(b), rng.uniform(0.0, 0.02, 1500)])
+    rim_normals = np.column_stack([np.cos(b), np.sin(b), np.zeros(1500)])
+    normals = np.vstack([np.tile([0.0, 0.0, -1.0], (12000, 1)), rim_normals])
+    assert shape_symmetry(*_seen(np.vstack([top, rim]), normals, np.array([0.0, 0.0, 0.8]))).kind != "box"
+
+
+def test_a_ball_is_a_ball_and_a_bowls_inside_is_not():
+    rng = np.random.default_rng(2)
+    d = rng.normal(size=(4000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    ball = shape_symmetry(*_seen(0.04 * d, d, np.array([0.0, 0.0, 0.8])))
+    assert ball.kind == "ball"
+    inside = d[d[:, 2] < -0.2]  # a bowl's inner surface: on a sphere, its normals pointing to the centre
+    bowl = _seen(0.08 * inside, -inside, np.array([0.0, 0.0, 0.8]))
+    assert shape_symmetry(*bowl).kind == "none"
+
+
+def _plane_view(pattern: str, rng: np.random.Generator):
+    """A slanted flat patch in view (rgb, mask, point map): uniform, checkered, or two faces of a box meeting at a
+    crease and lit differently (no print)."""
+    h, w = 120, 160
+    v, u = np.mgrid[0:h, 0:w].astype(float)
+    z = 0.8 + 0.0008 * u
+    if pattern == "crease":
+        z = 0.8 + 0.002 * np.abs(u - 80)
+    points = np.stack([(u - 80) / 500 * z, (v - 60) / 500 * z, z], axis=-1)
+    base = np.array([90.0, 60.0, 40.0])
+    shade = np.ones((h, w))
+    if pattern == "crease":
+        shade[:, 80:] = 0.6
+    rgb = base * shade[..., None]
+    if pattern == "checker":
+        rgb = np.where(((u // 10 + v // 10) % 2)[..., None] == 1, rgb, rgb * [0.6, 1.3, 1.2])
+    rgb = np.clip(rgb + rng.normal(0, 2.5, rgb.shape), 0, 255).astype(np.uint8)
+    mask = np.zeros((h, w), bool)
+    mask[20:100, 30:130] = True
+    return rgb, mask, points
+
+
+def test_a_print_shows_where_the_surface_does_not_turn_and_shading_or_a_crease_is_no_print():
+    rng = np.random.default_rng(3)
+    assert shows_print(*_plane_view("checker", rng))
+    assert not shows_print(*_plane_view("uniform", rng))
+    assert not shows_print(*_plane_view("crease", rng))
+
+
+def test_a_print_on_the_object_in_either_view_makes_the_reported_symmetry_none():
+    rng = np.random.default_rng(4)
+    points, normals = _box((0.06, 0.06, 0.11), rng)
+    plain, printed = _plane_view("uniform", rng), _plane_view("checker", rng)
+    assert seen_symmetry(points, normals, [plain, plain]).kind == "box"
+    reported = seen_symmetry(points, normals, [plain, printed])
+    assert reported.kind == "none" and reported.shape_kind == "box" and reported.label == "none (printed)"
+
+
+def test_the_bench_scores_modulo_the_reported_symmetry_but_never_beyond_the_shapes():
+    R_obj0 = Rotation.from_euler("xyz", [20, 0, 40], degrees=True).as_matrix()
+    flip = Rotation.from_rotvec([np.pi, 0.0, 0.0]).as_matrix()  # end for end, about the object's x axis
+    R_true = Rotation.from_euler("z", 30, degrees=True).as_matrix()
+    R_est = R_true @ R_obj0 @ flip @ R_obj0.T  # the truth's twin turned end for end
+    none = TrueSymmetry(np.eye(3)[None])
+    can = TrueSymmetry(np.eye(3)[None], axis=np.array([0.0, 0.0, 1.0]), flip=True)
+    from pipeline.grounding.types import SeenSymmetry
+
+    reported_can = SeenSymmetry("revolution_ends_alike", np.zeros(3), axis=R_obj0 @ [0.0, 0.0, 1.0])
+    as_can = as_true_symmetry(reported_can, R_obj0)
+    assert reported_rotation_error_deg(R_est, R_true, R_obj0, none, can, None) > 170  # nothing reported
+    assert reported_rotation_error_deg(R_est, R_true, R_obj0, none, can, as_can) < 1e-6  # a plain can: unseen
+    box = TrueSymmetry(np.eye(3)[None])  # a shape that shows the flip: reporting a ball hides nothing
+    ball = as_true_symmetry(SeenSymmetry("ball", np.zeros(3)), R_obj0)
+    assert reported_rotation_error_deg(R_est, R_true, R_obj0, none, box, ball) > 170
+    # a printed ball reported as a body of revolution: its turns about that axis are not scored, the rest are
+    ball_shape = TrueSymmetry(np.eye(3)[None], ball=True)
+    assert reported_rotation_error_deg(R_est, R_true, R_obj0, none, ball_shape, as_can) < 1e-6
+    spun = R_true @ R_obj0 @ Rotation.from_rotvec([0.0, 0.5, 0.0]).as_matrix() @ R_obj0.T  # 29 deg off the axis
+    assert abs(reported_rotation_error_deg(spun, R_true, R_obj0, none, ball_shape, as_can) - 28.6) < 0.1
