@@ -19,7 +19,8 @@ from pipeline.grounding.hypotheses import AXIS_MAPS, face_frame
 from pipeline.grounding.types import SeenSymmetry
 
 SAME_SIDE_M = 0.005  # a box's sides this close are one length (the simulator truth's own rule)
-BOX_FACE_TOL_REL = 0.03  # a box's seen points lie this close to its faces (share of its size) ...
+BOX_FACE_TOL_REL = 0.03  # a box's seen points lie this close to its faces (share of its size, at least
+BOX_FACE_TOL_M = 0.004  # this: a sensor's noise on a small block) ...
 BOX_FACE_SHARE = 0.85  # ... this many of them
 # a body of revolution whole: the side wall's points (normals off the axis) lie within REVOLUTION_TOL_REL of the
 # object's size (at least REVOLUTION_TOL_M) of their slice's radius, REVOLUTION_SHARE of them: a pan's or a mug's
@@ -30,7 +31,8 @@ REVOLUTION_SHARE = 0.97
 SLICE_M = 0.005
 BALL_NORMAL_DEG = 10.0  # a ball's normals point away from its centre: this close, BALL_NORMAL_SHARE of them
 BALL_NORMAL_SHARE = 0.9  # (a bowl's inside lies on a sphere too, its normals pointing in)
-BOX_FACE_FILL = 0.88  # each seen face fills its rectangle this well (a disc fills pi/4 of it)
+BOX_FACE_FILL = 0.88  # each seen face of MIN_FACE_POINTS fills its rectangle this well (a disc fills pi/4 of it)
+MIN_FACE_POINTS = 100
 # a print: neighbouring pixels PRINT_STEP_PX apart on one smooth patch of surface (normals within
 # SAME_NORMAL_DEG, depths within SAME_SURFACE_M) that differ in log brightness or chromaticity beyond
 # PRINT_CONTRAST (3.5 times what a sensor's noise of 2-3 levels in 255 leaves on a dark object after PRINT_BLUR_PX),
@@ -113,7 +115,8 @@ def _box_turns(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.
     sides = hi - lo
     size = float(np.linalg.norm(sides))
     to_face = np.minimum(np.abs(local - lo), np.abs(local - hi)).min(axis=1)
-    if np.mean(to_face <= BOX_FACE_TOL_REL * size) < BOX_FACE_SHARE or not _rectangular_faces(local, normals @ F):
+    on_faces = np.mean(to_face <= max(BOX_FACE_TOL_REL * size, BOX_FACE_TOL_M))
+    if on_faces < BOX_FACE_SHARE or not _rectangular_faces(local, normals @ F):
         return None
     keeps = [
         P for P in AXIS_MAPS if np.all(np.abs(sides - sides[np.argmax(np.abs(P), axis=1)]) <= SAME_SIDE_M)
@@ -129,13 +132,12 @@ def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
     seen = 0
     for k in range(3):
         face = np.abs(local_normals[:, k]) > np.cos(np.radians(12.0))
-        if face.sum() < 30:
+        if face.sum() < MIN_FACE_POINTS:  # a few dozen points' hull falls short of their rectangle
             continue
         flat = np.delete(local[face], k, axis=1)
-        lo, hi = np.percentile(flat, [1, 99], axis=0)
-        area = float(np.prod(hi - lo))
+        area = float(np.prod(np.ptp(flat, axis=0)))
         try:
-            hull = float(ConvexHull(np.clip(flat, lo, hi)).volume)
+            hull = float(ConvexHull(flat).volume)
         except QhullError:
             return False
         if area <= 0 or hull < BOX_FACE_FILL * area:
@@ -166,14 +168,23 @@ def shows_print(rgb: np.ndarray, mask: np.ndarray, points: np.ndarray) -> bool:
     chroma = f[..., :2] / np.maximum(total, DARK)[..., None]
     normals = _normals(points)
     k = PRINT_STEP_PX
+    cos_pair, cos_span = np.cos(np.radians(SAME_NORMAL_DEG)), np.cos(np.radians(2 * SAME_NORMAL_DEG))
     same, printed = 0, 0
-    for (a0, a1), (b0, b1) in (((slice(None), slice(None, -k)), (slice(None), slice(k, None))),
-                               ((slice(None, -k), slice(None)), (slice(k, None), slice(None)))):  # fmt: skip
-        pair = inside[a0, a1] & inside[b0, b1]
-        pair &= (normals[a0, a1] * normals[b0, b1]).sum(axis=2) > np.cos(np.radians(SAME_NORMAL_DEG))
-        pair &= np.abs(points[a0, a1, 2] - points[b0, b1, 2]) < SAME_SURFACE_M
-        step = np.abs(log_brightness[a0, a1] - log_brightness[b0, b1]) > PRINT_CONTRAST[0]
-        step |= np.abs(chroma[a0, a1] - chroma[b0, b1]).max(axis=2) > PRINT_CONTRAST[1]
+    for axis in (1, 0):
+        # pixel a, its neighbour b = a + k, and the span a - k .. b + k: the smoothed normals blend a crease's two
+        # faces near it, but not across the whole span
+        b = np.roll(normals, -k, axis=axis)
+        span = (np.roll(normals, k, axis=axis) * np.roll(normals, -2 * k, axis=axis)).sum(axis=2)
+        pair = inside & np.roll(inside, -k, axis=axis) & ((normals * b).sum(axis=2) > cos_pair)
+        pair &= np.nan_to_num(span, nan=-1.0) > cos_span
+        pair &= np.abs(points[..., 2] - np.roll(points[..., 2], -k, axis=axis)) < SAME_SURFACE_M
+        edge = [slice(None), slice(None)]
+        edge[axis] = slice(-2 * k, None)
+        pair[tuple(edge)] = False  # rolled round the border
+        edge[axis] = slice(None, k)
+        pair[tuple(edge)] = False
+        step = np.abs(log_brightness - np.roll(log_brightness, -k, axis=axis)) > PRINT_CONTRAST[0]
+        step |= np.abs(chroma - np.roll(chroma, -k, axis=axis)).max(axis=2) > PRINT_CONTRAST[1]
         same += int(pair.sum())
         printed += int((pair & step).sum())
     return same >= 50 and printed >= PRINT_SHARE * same
