@@ -145,3 +145,20 @@ def test_the_residual_limit_is_never_finer_than_half_the_inlier_threshold(pan_pa
     motion = ground(_input(pan_pair), FEATURES, GroundingConfig(max_registration_residual_rel=1e-6))
     assert motion.ok, motion.reason
     assert motion.residual_m <= 0.5 * motion.details["threshold_m"]
+
+
+@pytest.mark.parametrize(
+    ("name", "kind", "shape_kind"),
+    [
+        ("tomato", "ball", "ball"),
+        ("bottle_a", "revolution", "revolution"),
+        ("pan_a", "none", "none"),  # its handle shows every turn
+        ("box_b", "none", "box"),  # a uniform box would hide its half turns; its checker shows them
+    ],
+)
+def test_the_motion_comes_with_the_turns_its_shape_and_print_cannot_show(pair_renderer, name, kind, shape_kind):
+    goal = goal_pose(pair_renderer, name, (0.06, -0.04), 40.0)
+    pair = pair_renderer.render(name, goal, "depth", np.random.default_rng(1))
+    motion = ground(_input(pair), FEATURES, T_base_camera=pair.T_base_camera)
+    assert motion.ok, motion.reason
+    assert (motion.symmetry.kind, motion.symmetry.shape_kind) == (kind, shape_kind), motion.symmetry
