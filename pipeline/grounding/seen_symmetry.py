@@ -14,11 +14,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from pipeline.grounding.compare import object_symmetry
-from pipeline.grounding.hypotheses import AXIS_MAPS, face_frame
+from pipeline.grounding.compare import SAME_SIDE_M, object_centre, object_symmetry
+from pipeline.grounding.hypotheses import AXIS_MAPS, FACE_TOL_DEG, face_frame
 from pipeline.grounding.types import SeenSymmetry
 
-SAME_SIDE_M = 0.005  # a box's sides this close are one length (the simulator truth's own rule)
 BOX_FACE_TOL_REL = 0.03  # a box's seen points lie this close to its faces (share of its size, at least
 BOX_FACE_TOL_M = 0.004  # this: a sensor's noise on a small block) ...
 BOX_FACE_SHARE = 0.85  # ... this many of them
@@ -67,17 +66,16 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:
     revolution = object_symmetry(P)
     if revolution is not None and revolution.axis is None:
         if not _radial_normals(P, normals, revolution.centre):
-            return SeenSymmetry("none", np.median(P, axis=0))
+            return SeenSymmetry("none", object_centre(P))
         return SeenSymmetry("ball", revolution.centre, shape_kind="ball")
     if revolution is not None and _whole_revolution(P, normals, revolution.centre, revolution.axis):
         kind = "revolution_ends_alike" if revolution.ends_alike else "revolution"
         return SeenSymmetry(kind, revolution.centre, axis=revolution.axis, shape_kind=kind)
     box = _box_turns(P, normals)
-    if box is not None:
+    if box is not None:  # at least its three half turns about the face axes
         centre, turns = box
-        if len(turns) > 1:
-            return SeenSymmetry("box", centre, rotations=turns, shape_kind="box")
-    return SeenSymmetry("none", np.median(P, axis=0))
+        return SeenSymmetry("box", centre, rotations=turns, shape_kind="box")
+    return SeenSymmetry("none", object_centre(P))
 
 
 def _radial_normals(points: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> bool:
@@ -131,7 +129,7 @@ def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
 
     seen = 0
     for k in range(3):
-        face = np.abs(local_normals[:, k]) > np.cos(np.radians(12.0))
+        face = np.abs(local_normals[:, k]) > np.cos(np.radians(FACE_TOL_DEG))
         if face.sum() < MIN_FACE_POINTS:  # a few dozen points' hull falls short of their rectangle
             continue
         flat = np.delete(local[face], k, axis=1)
