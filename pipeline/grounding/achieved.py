@@ -13,14 +13,17 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drivers.types import RGBDFrame
-from pipeline.grounding.compare import Symmetry, object_centre, object_symmetry, square_footprint_axis
+from pipeline.contact.sampling import estimate_normals
+from pipeline.grounding.compare import Symmetry, object_centre, object_symmetry
 from pipeline.grounding.ground import ground
+from pipeline.grounding.seen_symmetry import box_turns
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity
 from pipeline.perception.features import FeatureExtractor
 
 HINT_TWIST_DEG, HINT_TWIST_STEP_DEG = 30.0, 10.0  # the expected motion is tried turned this far, in these steps
 HINT_SPIN_STEP_DEG = 30.0  # ... and a body of revolution's spun about its axis in these
+NORMAL_RADIUS_M = 0.01  # the seen points' normals, to find a box's faces
 
 
 @dataclass(frozen=True)
@@ -28,8 +31,8 @@ class AchievedMotion:
     """x_after = R x_before + t of the object (camera frame), with what comparing it needs.
 
     registration: grounding's result between the captures (None for a ball, measured by its centre alone);
-    symmetry: the turns the initial points say no image can show (None for a hinged part: its turn is judged);
-    quarter_turn_axis: the vertical (camera frame) when the object is a box on a square footprint.
+    symmetry: the turns the initial points' shape says no image can show (hidden_by_shape; None for a hinged part:
+    its turn is judged).
     """
 
     R: np.ndarray
@@ -37,7 +40,6 @@ class AchievedMotion:
     centre_camera: np.ndarray  # the object's seen centre in the first capture
     symmetry: Symmetry | None
     registration: ObjectMotion | None
-    quarter_turn_axis: np.ndarray | None = None
 
     @property
     def ok(self) -> bool:
@@ -50,6 +52,16 @@ class AchievedMotion:
 
 def _points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
     return frame.intrinsics.unproject_depth_image(frame.depth)[mask & np.isfinite(frame.depth)]
+
+
+def hidden_by_shape(points: np.ndarray) -> Symmetry | None:
+    """The turns the seen points' shape hides (camera frame): a ball's, a body of revolution's about its axis, a
+    box's onto itself (seen_symmetry.box_turns); None when every turn shows."""
+    symmetry = object_symmetry(points)
+    if symmetry is not None:
+        return symmetry
+    box = box_turns(points, estimate_normals(points, NORMAL_RADIUS_M, np.zeros(3)))
+    return None if box is None else Symmetry(box[0], None, turns=box[1])
 
 
 def expected_hints(
@@ -93,9 +105,9 @@ def measure_achieved(
     quarter). A near-symmetric shape otherwise lets the registration settle on a twin tipped over or turned, which
     the comparison would then judge."""
     points = _points(before, mask_before)
-    symmetry = None if anchor_before is not None else object_symmetry(points)
+    symmetry = None if anchor_before is not None else hidden_by_shape(points)
     centre = object_centre(points)
-    if symmetry is not None and symmetry.axis is None:
+    if symmetry is not None and symmetry.ball:
         seen_after = object_symmetry(_points(after, mask_after))
         if seen_after is not None and seen_after.axis is None:
             return AchievedMotion(np.eye(3), seen_after.centre - symmetry.centre, centre, symmetry, None)
@@ -114,5 +126,4 @@ def measure_achieved(
     up_camera = before.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
     hints = [] if expected is None else expected_hints(*expected, centre, up_camera, symmetry)
     motion = ground(inp, features, config, T_base_camera=before.T_base_camera, hints=hints)
-    quarter = square_footprint_axis(points, up_camera) if symmetry is None and anchor_before is None else None
-    return AchievedMotion(motion.R, motion.t, centre, symmetry, motion, quarter)
+    return AchievedMotion(motion.R, motion.t, centre, symmetry, motion)

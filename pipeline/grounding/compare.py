@@ -9,9 +9,11 @@ revolution (an upright can, a bottle) shows no turn about its own axis, so that 
 position is compared on the axis (the centroid of the seen side swings with the invisible turn); one whose ends
 look alike (a can: one radius all along) shows no half turn end for end either (a can stood up on its other end
 is stood up), so the smaller of the two errors counts; a ball shows no turn at all and is compared at its
-centre. A box whose footprint is square (sides within SAME_SIDE_M, the simulator truth's own rule) shows no
-quarter turn about the vertical either: the smallest error over the four counts. All
-are recognised from the initial points.
+centre. A box shows none of the turns that carry it onto itself (its half turns about its face axes, and the
+quarter turns that swap sides of one length: seen_symmetry.box_turns, the simulator truth's own rule): the
+smallest error over them counts, compared at the box's middle. All are recognised from the initial points; a
+print is not read (the simulator's truth judges shapes alone, and a print's turn judged on a uniform object whose
+shading reads as a print would be a false failure).
 """
 
 from __future__ import annotations
@@ -22,14 +24,12 @@ from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
-from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from pipeline.contact.symmetry import TOLERANCE_REL, revolution_axis
 
 INTENDED_DEG = 10.0
 SAME_SIDE_M = 0.005  # a box's sides this close are one length: a turn swapping them does not show
-RECTANGLE_FILL = 0.9  # a box's footprint fills its smallest rectangle; a disc fills pi/4 of it
 
 
 def rotation_deg(R: np.ndarray) -> float:
@@ -48,12 +48,40 @@ def twist_tilt_deg(R_base: np.ndarray) -> tuple[float, float]:
 @dataclass(frozen=True)
 class Symmetry:
     """What the seen points say no registration can see: turns about `axis` (unit, camera frame) of a body of
-    revolution, or any turn of a ball (axis None). `centre` (camera frame, on the axis or the ball's centre) is
-    where positions are compared, since the seen side's centroid swings with the unseen turn."""
+    revolution, the `turns` of a box onto itself, or any turn of a ball (neither). `centre` (camera frame, on the
+    axis, the ball's or the box's middle) is where positions are compared, since the seen side's centroid swings
+    with the unseen turn."""
 
     centre: np.ndarray
     axis: np.ndarray | None
     ends_alike: bool = False  # a body of revolution that looks the same turned end for end (a can)
+    turns: np.ndarray | None = None  # a box: (K, 3, 3) camera-frame turns about `centre`, the identity among them
+
+    @property
+    def ball(self) -> bool:
+        return self.axis is None and self.turns is None
+
+    @property
+    def name(self) -> str:
+        if self.ball:
+            return "ball"
+        if self.axis is None:
+            return "box"
+        return "revolution_ends_alike" if self.ends_alike else "revolution"
+
+
+def hidden_turns_out(R: np.ndarray, symmetry: Symmetry | None) -> np.ndarray:
+    """A rotation R acting on the object as first seen, with the turns `symmetry` hides taken out: the swing of a
+    body of revolution (the smaller of it and its end-for-end twin's when its ends look alike), the least of
+    R's box twins S^T R, nothing of a ball's."""
+    if symmetry is None:
+        return R
+    if symmetry.ball:
+        return np.eye(3)
+    if symmetry.axis is None:
+        return min((S.T @ R for S in symmetry.turns), key=rotation_deg)
+    seen_alike = [R, R @ half_turn_across(symmetry.axis)] if symmetry.ends_alike else [R]
+    return min((without_turn_about(A, symmetry.axis) for A in seen_alike), key=rotation_deg)
 
 
 def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
@@ -68,30 +96,6 @@ def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
     if off <= TOLERANCE_REL * float(np.linalg.norm(np.ptp(P, axis=0))):
         return Symmetry(centre, None)
     return Symmetry(axis.point, axis.direction, axis.ends_alike)
-
-
-def square_footprint_axis(points_camera: np.ndarray, up_camera: np.ndarray) -> np.ndarray | None:
-    """The vertical (camera frame) when the object is a box standing on a square footprint, so that turned a
-    quarter about the vertical it shows the same outline; None otherwise. points_camera (N, 3): its seen points;
-    up_camera: the table's normal. Its print is not read (a box whose texture shows the quarter turn counts as
-    square too, as it does for the simulator's truth); the seen points' rectangle is off by up to 5 mm a side."""
-    from cv2 import minAreaRect
-
-    P = np.asarray(points_camera, dtype=np.float64)
-    if len(P) < 50:
-        return None
-    up = up_camera / np.linalg.norm(up_camera)
-    e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    flat = np.column_stack([P @ e1, P @ np.cross(up, e1)]).astype(np.float32)
-    (_, _), (a, b), _ = minAreaRect(flat)
-    if a * b <= 0 or float(ConvexHull(flat).volume) < RECTANGLE_FILL * a * b or abs(a - b) > SAME_SIDE_M:
-        return None
-    return up
-
-
-def quarter_turn(axis: np.ndarray, k: int) -> np.ndarray:
-    return Rotation.from_rotvec(k * np.pi / 2 * axis).as_matrix()
 
 
 def without_turn_about(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
@@ -134,7 +138,7 @@ class Comparison(BaseModel):
     tilt_error_deg: float
     twist_judged: bool
     tilt_judged: bool
-    symmetry: Literal["none", "ball", "revolution", "revolution_ends_alike", "quarter_turns"]
+    symmetry: Literal["none", "ball", "revolution", "revolution_ends_alike", "box"]
     position_tol_m: float
     rotation_tol_deg: float
 
@@ -150,11 +154,9 @@ def compare(
     position_tol_m: float,
     rotation_tol_deg: float,
     symmetry: Symmetry | None = None,
-    quarter_turn_axis: np.ndarray | None = None,
 ) -> Comparison:
     """Verdict from the goal and achieved motions (x' = R x + t, camera frame) of an object centred at centre;
-    with a symmetry, positions are compared at its centre and turns it hides are not judged; with a quarter-turn
-    axis (square_footprint_axis), the goal turned a quarter about it through the centre is the goal too."""
+    with a symmetry, positions are compared at its centre and turns it hides are not judged."""
     if symmetry is not None:
         centre_camera = symmetry.centre
     p_goal = goal_R @ centre_camera + goal_t
@@ -162,14 +164,10 @@ def compare(
     position_error = float(np.linalg.norm(p_goal - p_achieved))
     to_base = lambda R: R_base_camera @ R @ R_base_camera.T  # noqa: E731
     goal_twist, goal_tilt = twist_tilt_deg(to_base(goal_R))
-    R_error = goal_R.T @ achieved_R  # acts on the object as first seen, where the symmetry axis was found
-    if symmetry is not None and symmetry.axis is not None:
-        seen_alike = [R_error, R_error @ half_turn_across(symmetry.axis)] if symmetry.ends_alike else [R_error]
-        R_error = min((without_turn_about(R, symmetry.axis) for R in seen_alike), key=rotation_deg)
-    elif quarter_turn_axis is not None:  # goal_R S for a quarter turn S is the goal as well: S^T R_error
-        R_error = min((quarter_turn(quarter_turn_axis, k).T @ R_error for k in range(4)), key=rotation_deg)
+    # acts on the object as first seen, where the symmetry was found; goal_R S for a turn S it hides is the goal too
+    R_error = hidden_turns_out(goal_R.T @ achieved_R, symmetry)
     twist_error, tilt_error = twist_tilt_deg(to_base(R_error))
-    turns_seen = symmetry is None or symmetry.axis is not None  # no turn of a ball shows
+    turns_seen = symmetry is None or not symmetry.ball  # no turn of a ball shows
     judge_twist, judge_tilt = turns_seen and goal_twist >= INTENDED_DEG, turns_seen and goal_tilt >= INTENDED_DEG
     problems = []
     if position_error > position_tol_m:
@@ -198,15 +196,7 @@ def compare(
         tilt_error_deg=tilt_error,
         twist_judged=judge_twist,
         tilt_judged=judge_tilt,
-        symmetry="quarter_turns" if symmetry is None and quarter_turn_axis is not None else _symmetry_name(symmetry),
+        symmetry="none" if symmetry is None else symmetry.name,
         position_tol_m=position_tol_m,
         rotation_tol_deg=rotation_tol_deg,
     )
-
-
-def _symmetry_name(symmetry: Symmetry | None) -> str:
-    if symmetry is None:
-        return "none"
-    if symmetry.axis is None:
-        return "ball"
-    return "revolution_ends_alike" if symmetry.ends_alike else "revolution"

@@ -71,7 +71,7 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:
     if revolution is not None and _whole_revolution(P, normals, revolution.centre, revolution.axis):
         kind = "revolution_ends_alike" if revolution.ends_alike else "revolution"
         return SeenSymmetry(kind, revolution.centre, axis=revolution.axis, shape_kind=kind)
-    box = _box_turns(P, normals)
+    box = box_turns(P, normals)
     if box is not None:  # at least its three half turns about the face axes
         centre, turns = box
         return SeenSymmetry("box", centre, rotations=turns, shape_kind="box")
@@ -103,7 +103,7 @@ def _whole_revolution(points: np.ndarray, normals: np.ndarray, point: np.ndarray
     return bool(np.mean(deviation <= tol) >= REVOLUTION_SHARE)
 
 
-def _box_turns(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def box_turns(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """(centre, (K, 3, 3) camera-frame turns about it that map the box onto itself) when the points lie on a box."""
     F = face_frame(normals)
     if F is None:

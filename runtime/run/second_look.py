@@ -24,7 +24,7 @@ import numpy as np
 
 from drivers.types import RGBDFrame
 from pipeline.grounding.achieved import measure_achieved
-from pipeline.grounding.compare import rotation_deg, without_turn_about
+from pipeline.grounding.compare import hidden_turns_out, rotation_deg
 from pipeline.perception.features import FeatureExtractor
 from pipeline.perception.scene_change import ChangedRegion, depth_changes
 from pipeline.perception.segmenter import Segmenter
@@ -156,11 +156,7 @@ def _shift_turn(drift) -> tuple[float, float]:
     """How far the target's centre moved [m] and how far it turned [deg], without the turns its symmetry hides."""
     c = drift.centre_camera if drift.symmetry is None else drift.symmetry.centre
     shift = float(np.linalg.norm(drift.R @ c + drift.t - c))
-    if drift.symmetry is None:
-        return shift, rotation_deg(drift.R)
-    if drift.symmetry.axis is None:  # a ball: no turn shows
-        return shift, 0.0
-    return shift, rotation_deg(without_turn_about(drift.R, drift.symmetry.axis))
+    return shift, rotation_deg(hidden_turns_out(drift.R, drift.symmetry))
 
 
 def _rebase_capture(ctx: RunContext, look: RGBDFrame, name: str) -> None:

@@ -107,7 +107,6 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         position_tol_m=cfg.verify_position_tol_m,
         rotation_tol_deg=cfg.verify_rotation_tol_deg,
         symmetry=achieved.symmetry,
-        quarter_turn_axis=achieved.quarter_turn_axis,
     )
     if achieved.registration is not None and achieved.registration.details.get("hint_taken"):
         hinted = f"{comparison.reason} (measured from the goal's motion as a hint: the captures show it as well as any)"
