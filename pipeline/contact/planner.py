@@ -23,7 +23,9 @@ And a grasped body of revolution (symmetry.py) reaches the same
 goal turned about its own axis, a turn the images cannot show, so the goal is also tried turned about that axis:
 first by the turn that keeps the gripper most upright at the goal (the registration's turn about the axis is
 arbitrary, and a lying bottle's may roll the grasp into the table), then in 45 deg steps; the plan then carries
-the object motion it realises (ContactPlan.T_motion).
+the object motion it realises (ContactPlan.T_motion). A box whose turns onto itself no image shows (the symmetry
+grounding reported with the motion: a uniform box's half turns, a cube's 24) is carried by the goal's twin that
+turns it least: the grounded turn among those is the registration's pick, not the goal's.
 """
 
 from __future__ import annotations
@@ -86,6 +88,7 @@ def plan_contacts(
     viewpoint: np.ndarray | None = None,
     object_name: str = "object",
     release_world=None,
+    hidden_turns: np.ndarray | None = None,
 ) -> ContactResult:
     """Ranked contact plans for moving the object by T_base_motion (x_goal = T x_init, base frame).
 
@@ -97,7 +100,8 @@ def plan_contacts(
     the scene there is the geometric filter's). viewpoint: camera position (for normals). object_name: names a
     grasped object's held box (ContactPlan.held) in the gate's reports. release_world: the world a grasp's release
     is checked in with the object in the hand (default collision_world; a tool's put-back leaves out the tool's
-    other parts, which collision_world keeps as obstacles for the approach).
+    other parts, which collision_world keeps as obstacles for the approach). hidden_turns: (K, 4, 4) base-frame
+    turns of the object onto itself that neither its shape nor its print shows (a box's, reported by grounding).
     """
     cfg = config or ContactConfig()
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
@@ -142,7 +146,7 @@ def plan_contacts(
         if not candidates:
             rejected["no horizontal motion to push along"] += 1
     total = len(candidates) + sum(rejected.values())
-    motions = _motions(pts, T_base_motion, mode)
+    motions = _motions(pts, T_base_motion, mode, hidden_turns)
     scene_tree = cKDTree(scene) if len(scene) else None
     placing = _Placing(pts, object_name, robot.tcp_frame, release_world)
     goal_check = _GoalCheck(cfg, robot, scene, scene_tree, [transform_points(M, pts) for M in motions], placing)
@@ -217,11 +221,14 @@ def _gate_clear(
     return clear
 
 
-def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> list[np.ndarray]:
+def _motions(
+    points: np.ndarray, T_motion: np.ndarray, mode: ContactMode, hidden_turns: np.ndarray | None = None
+) -> list[np.ndarray]:
     """The object motion, then (a grasped body of revolution) the same goal turned about the body's own axis: by
     the turn that keeps the vertical most vertical (a top grasp stays upright), then in SPIN_DEG steps; for a
-    grasped ball only its centre's move (the registration's turn of a ball is arbitrary); for a flat part the
-    motion and its half turns (_flat_turns)."""
+    grasped ball only its centre's move (the registration's turn of a ball is arbitrary); for a box with
+    `hidden_turns` the least-turning of the goal's twins alone; for a flat part the motion and its half turns
+    (_flat_turns)."""
     if mode != "grasp":
         return [T_motion]
     centre = ball_centre(points)
@@ -230,6 +237,8 @@ def _motions(points: np.ndarray, T_motion: np.ndarray, mode: ContactMode) -> lis
         T[:3, 3] = T_motion[:3, :3] @ centre + T_motion[:3, 3] - centre
         return [T]
     axis = revolution_axis(points)
+    if axis is None and hidden_turns is not None:
+        return [min((T_motion @ H for H in hidden_turns), key=lambda M: turn_deg(M, np.eye(4)))]
     if axis is None:
         return _flat_turns(points, T_motion)
     turns = np.radians(np.arange(-180.0, 180.0, UPRIGHT_STEP_DEG))

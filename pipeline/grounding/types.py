@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from pydantic import Field
@@ -68,6 +68,24 @@ class SeenSymmetry:
             return f"box: {len(self.rotations)} turns"
         printed = " (printed)" if self.kind == "none" and self.shape_kind != "none" else ""
         return self.kind + printed
+
+    def moved(self, R: np.ndarray, t: np.ndarray) -> SeenSymmetry:
+        """The same symmetry of the object carried by x' = R x + t (camera frame): seen from where it is now."""
+        return replace(
+            self,
+            centre=R @ self.centre + t,
+            axis=None if self.axis is None else R @ self.axis,
+            rotations=None if self.rotations is None else R @ self.rotations @ R.T,
+        )
+
+    def box_turns_in(self, T_frame_camera: np.ndarray) -> np.ndarray | None:
+        """A box's turns as (K, 4, 4) rigid motions of the object onto itself in another frame, or None."""
+        if self.kind != "box" or self.rotations is None:
+            return None
+        H = np.tile(np.eye(4), (len(self.rotations), 1, 1))
+        H[:, :3, :3] = self.rotations
+        H[:, :3, 3] = self.centre - self.rotations @ self.centre
+        return T_frame_camera @ H @ np.linalg.inv(T_frame_camera)
 
 
 @dataclass(frozen=True)

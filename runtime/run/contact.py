@@ -128,4 +128,7 @@ def _plan(
         # a grasp's release and the descent to it, the object in the hand, with the table as the carry's gate sees it
         # (the hand let go of a stood-up bottle sideways, low: link6 came down into the padded table)
         release_world=CollisionWorld(robot, ctx.profile.safety, points=clouds.scene),
+        hidden_turns=None
+        if ctx.motion.symmetry is None
+        else ctx.motion.symmetry.box_turns_in(ctx.motion.T_base_camera),
     )

@@ -173,7 +173,8 @@ def _rebase_motion(
     motion = ctx.motion
     R = motion.R @ R_drift.T
     t = motion.t - R @ t_drift
-    ctx.motion = replace(motion, R=R, t=t, details={**motion.details, "rebased_on": name})
+    symmetry = None if motion.symmetry is None else motion.symmetry.moved(R_drift, t_drift)
+    ctx.motion = replace(motion, R=R, t=t, details={**motion.details, "rebased_on": name}, symmetry=symmetry)
     ctx.goal = replace(ctx.goal, rgb_init=look.rgb, mask_init=mask_now)
     ctx.frame0, ctx.basis = look, name
     ctx.contact = ctx.manipulation = ctx.plan = None

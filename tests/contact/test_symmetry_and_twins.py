@@ -172,3 +172,23 @@ def test_a_lying_cylinder_seen_from_one_side_is_pinched_about_its_axis_with_the_
         # ... and close below what the seen points show between them, not below the completed width: an axis a few
         # millimetres off widens that, and the fingers closed too lightly on an upright bottle to hold it (seed 9115)
         assert plan.width_m < plan.object_width_m - config.squeeze_m - 0.01
+
+
+def test_a_box_whose_turns_no_image_shows_is_carried_by_the_goals_least_turning_twin(robot):
+    """A uniform cube the goal turns a quarter about the vertical and moves 12 cm: that turn is one grounding
+    reports the images cannot show, so the plans carry the cube there unturned; unreported, the turn is made."""
+    from pipeline.grounding.types import SeenSymmetry
+
+    centre, goal = np.array([0.45, -0.05, 0.025]), np.array([0.45, 0.07, 0.025])
+    cube = _box_cloud(centre[:2], np.array([0.05, 0.05, 0.05]))
+    quarter = Rotation.from_euler("z", 90.0, degrees=True).as_matrix()
+    motion = _translation(0.0, 0.12)
+    motion[:3, :3], motion[:3, 3] = quarter, goal - quarter @ centre
+    turns = Rotation.from_euler("z", [[0.0], [90.0], [180.0], [270.0]], degrees=True).as_matrix()
+    hidden = SeenSymmetry("box", centre, rotations=turns, shape_kind="box").box_turns_in(np.eye(4))
+    for reported, turned_deg in ((hidden, 0.0), (None, 90.0)):
+        result = plan_contacts(cube, np.zeros((0, 3)), motion, robot, hidden_turns=reported)
+        assert result.ok, result.reason
+        for plan in result.plans:
+            assert turn_deg(plan.T_motion, np.eye(4)) == pytest.approx(turned_deg, abs=1e-6)
+            np.testing.assert_allclose(plan.T_motion[:3, :3] @ centre + plan.T_motion[:3, 3], goal, atol=1e-9)

@@ -165,3 +165,29 @@ def test_the_bench_scores_modulo_the_reported_symmetry_but_never_beyond_the_shap
     assert reported_rotation_error_deg(R_est, R_true, R_obj0, none, ball_shape, as_can) < 1e-6
     spun = R_true @ R_obj0 @ Rotation.from_rotvec([0.0, 0.5, 0.0]).as_matrix() @ R_obj0.T  # 29 deg off the axis
     assert abs(reported_rotation_error_deg(spun, R_true, R_obj0, none, ball_shape, as_can) - 28.6) < 0.1
+
+
+def test_a_box_symmetry_moved_with_its_box_still_maps_it_onto_itself_in_the_base_frame():
+    """The second look carries the reported symmetry with the object's drift, and the planner takes its turns in
+    the base frame: each turn there must carry the moved box's points onto its own surface."""
+    rng = np.random.default_rng(4)
+    sides = np.array([0.05, 0.08, 0.11])
+    points, normals = _box(tuple(sides), rng)
+    symmetry = shape_symmetry(points, normals)
+    R = Rotation.from_euler("xyz", [10, -40, 75], degrees=True).as_matrix()
+    t = np.array([0.12, -0.05, 0.03])
+    T_base_camera = np.eye(4)
+    T_base_camera[:3, :3], T_base_camera[:3, 3] = Rotation.from_euler("x", 130, degrees=True).as_matrix(), [0.3, 0, 0.6]
+    to_base = lambda X: X @ T_base_camera[:3, :3].T + T_base_camera[:3, 3]  # noqa: E731
+    moved = to_base(points @ R.T + t)
+
+    def off_surface(H: np.ndarray) -> float:
+        """Median distance [m] of the turned points from the moved box's surface."""
+        X = (moved @ H[:3, :3].T + H[:3, 3] - T_base_camera[:3, 3]) @ T_base_camera[:3, :3]  # camera frame
+        local = ((X - t) @ R - [0.0, 0.0, 0.8]) @ TOWARD  # the box's own frame
+        return float(np.median(np.abs(np.max(np.abs(local) - sides / 2, axis=1))))
+
+    turns = symmetry.moved(R, t).box_turns_in(T_base_camera)
+    assert len(turns) == 4 and max(off_surface(H) for H in turns) < 0.002
+    stale = symmetry.box_turns_in(T_base_camera)  # not carried with the box: turns about where it was
+    assert max(off_surface(H) for H in stale) > 0.05
