@@ -116,10 +116,25 @@ def box_turns(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.n
     on_faces = np.mean(to_face <= max(BOX_FACE_TOL_REL * size, BOX_FACE_TOL_M))
     if on_faces < BOX_FACE_SHARE or not _rectangular_faces(local, normals @ F):
         return None
-    keeps = [
-        P for P in AXIS_MAPS if np.all(np.abs(sides - sides[np.argmax(np.abs(P), axis=1)]) <= SAME_SIDE_M)
-    ]  # P maps axis j to axis argmax|P[j]|: a turn of the box onto itself when those sides are equal
+    same = _same_sides(sides)
+    keeps = [P for P in AXIS_MAPS if all(same[j, k] for j, k in enumerate(np.argmax(np.abs(P), axis=1)))]
+    # P maps axis j to axis argmax|P[j]|: a turn of the box onto itself when those sides are one length
     return F @ ((lo + hi) / 2), np.array([F @ P @ F.T for P in keeps])
+
+
+def _same_sides(sides: np.ndarray) -> np.ndarray:
+    """(3, 3) which sides are one length: within SAME_SIDE_M, and as a partition (sides of 40, 44 and 48 mm
+    would make the first two alike and the last two, but not the first and the last; the closer pair is kept),
+    so that the turns kept form a group (4, 8 or 24 of them)."""
+    gap = np.abs(sides[:, None] - sides[None, :])
+    close = [(gap[i, j], i, j) for i, j in ((0, 1), (0, 2), (1, 2)) if gap[i, j] <= SAME_SIDE_M]
+    same = np.eye(3, dtype=bool)
+    if len(close) == 3:
+        return np.ones((3, 3), dtype=bool)
+    if close:
+        _, i, j = min(close)
+        same[i, j] = same[j, i] = True
+    return same
 
 
 def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:

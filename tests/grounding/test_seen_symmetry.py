@@ -60,6 +60,8 @@ def test_a_uniform_box_is_reported_with_the_turns_its_equal_sides_allow():
     rng = np.random.default_rng(0)
     assert len(shape_symmetry(*_box((0.05, 0.08, 0.11), rng)).rotations) == 4
     assert len(shape_symmetry(*_box((0.06, 0.06, 0.11), rng)).rotations) == 8
+    # sides 4.5 mm apart in a row: the closer pair is one length, the far ends are not (12 turns are no group)
+    assert len(shape_symmetry(*_box((0.0400, 0.0445, 0.0490), rng)).rotations) == 8
     cube = shape_symmetry(*_box((0.07, 0.07, 0.07), rng))
     assert cube.kind == "box" and len(cube.rotations) == 24
     for R in cube.rotations:  # each maps the seen cube's points onto its surface again
