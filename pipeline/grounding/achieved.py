@@ -23,7 +23,7 @@ from pipeline.perception.features import FeatureExtractor
 
 HINT_TWIST_DEG, HINT_TWIST_STEP_DEG = 30.0, 10.0  # the expected motion is tried turned this far, in these steps
 HINT_SPIN_STEP_DEG = 30.0  # ... and a body of revolution's spun about its axis in these
-NORMAL_RADIUS_M = 0.01  # the seen points' normals, to find a box's faces
+NORMAL_RADIUS_M, VOXEL_M = 0.01, 0.003  # the seen points' normals, on 3 mm voxels, to find a box's faces
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,11 @@ def hidden_by_shape(points: np.ndarray) -> Symmetry | None:
     symmetry = object_symmetry(points)
     if symmetry is not None:
         return symmetry
-    box = box_turns(points, estimate_normals(points, NORMAL_RADIUS_M, np.zeros(3)))
+    import open3d as o3d
+
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
+    sparse = np.asarray(cloud.voxel_down_sample(VOXEL_M).points)  # a sensor's points are far denser than faces need
+    box = box_turns(sparse, estimate_normals(sparse, NORMAL_RADIUS_M, np.zeros(3)))
     return None if box is None else Symmetry(box[0], None, turns=box[1])
 
 
