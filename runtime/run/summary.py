@@ -157,11 +157,13 @@ class PhaseRecord(Section):
 
 
 class AchievedRecord(Section):
-    """How the achieved motion was measured: a registration between the captures, or a ball's centre shift."""
+    """How the achieved motion was measured: a registration between the captures (refused: its reason), a ball's
+    centre shift, or not at all (`none`, with the reason: the target not found again, the camera moved)."""
 
-    method: Literal["registration", "ball_centre"]
+    method: Literal["registration", "ball_centre", "none"]
     registration: MotionRecord | None = None
     ball_centre_shift_m: list[float] | None = None
+    reason: str = ""
 
 
 class GroupCountRecord(Section):

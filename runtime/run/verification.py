@@ -53,9 +53,9 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
     before, goal = ctx.frame0, ctx.goal
     moved_mm, moved_deg = camera_moved(before.T_base_camera, after.T_base_camera)
     if moved_mm > CAMERA_STILL_MM or moved_deg > CAMERA_STILL_DEG:
-        return Verification(
-            ok=False,
-            reason=f"the camera moved {moved_mm:.0f} mm / {moved_deg:.1f} deg between the captures: verification "
+        return _unmeasured(
+            ctx,
+            f"the camera moved {moved_mm:.0f} mm / {moved_deg:.1f} deg between the captures: verification "
             "compares two views from one pose (a camera on the arm must capture again where it first did)",
         )
     if goal.group_size is not None:  # several parts swept into a container: counted there
@@ -69,7 +69,7 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
         segmenter, after.rgb, goal.target, before.rgb, goal.mask_init, after.depth, goal.mask_anchor
     )
     if len(detections) != 1:
-        return Verification(ok=False, reason=f"target '{goal.target}' found {len(detections)} times after execution")
+        return _unmeasured(ctx, f"target '{goal.target}' found {len(detections)} times after execution")
     mask_after = detections[0].mask
     ctx.record.image("mask_after", mask_after)
     achieved = measure_achieved(
@@ -119,6 +119,12 @@ def verify_run(ctx: RunContext, after: RGBDFrame, segmenter: Segmenter, features
     ):
         return lid_shut(after, mask_after, comparison, cfg.verify_lid_shut_tol_deg)
     return Verification(ok=comparison.ok, reason=comparison.reason, comparison=comparison)
+
+
+def _unmeasured(ctx: RunContext, reason: str) -> Verification:
+    """A failed verification whose achieved motion could not be measured: the record says so, and why."""
+    ctx.record.summary.achieved_motion = AchievedRecord(method="none", reason=reason)
+    return Verification(ok=False, reason=reason)
 
 
 def _lid_over_its_box(before: RGBDFrame, mask_box: np.ndarray | None, after: RGBDFrame, mask_lid: np.ndarray) -> bool:

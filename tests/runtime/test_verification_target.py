@@ -138,3 +138,35 @@ def test_a_bottle_judged_by_its_axis_must_stand_on_the_end_the_goal_puts_down(si
     verdict = _judged_by_axis(profile, lying, mask0, flip @ P1 @ np.linalg.inv(P0), standing, mask1)
     assert not verdict.ok and verdict.stood.tilt_deg < 5 and verdict.stood.error_m < 0.01, verdict.reason
     assert "stands on the end the goal puts up" in verdict.reason
+
+
+def test_a_target_not_found_again_fails_with_the_unmeasured_motion_recorded_and_why():
+    """Two regions like the target after execution: verification cannot tell which is it, fails, and the record's
+    achieved motion says it was not measured and why (as it does when the camera moved between the captures)."""
+    from types import SimpleNamespace
+
+    from runtime.run.verification import verify_run
+
+    cube_before, twins = square(20, 20, 12), (square(70, 100, 12), square(70, 20, 12))
+    depth = np.full((120, 160), 0.8, np.float32)
+
+    def frame(rgb, x_m=0.0):
+        T = np.eye(4)
+        T[0, 3] = x_m
+        return SimpleNamespace(rgb=rgb, depth=depth, T_base_camera=T)
+
+    def run(after):
+        ctx = SimpleNamespace(
+            frame0=frame(paint(cube_before)),
+            goal=SimpleNamespace(group_size=None, target="the purple cube", mask_init=cube_before, mask_anchor=None),
+            instruction="put the purple cube on the plate",
+            contact=None,
+            record=SimpleNamespace(summary=SimpleNamespace(achieved_motion=None)),
+        )
+        return verify_run(ctx, after, Regions(*twins), features=None), ctx.record.summary.achieved_motion
+
+    verdict, achieved = run(frame(paint(*twins)))
+    assert not verdict.ok and "found 2 times after execution" in verdict.reason
+    assert achieved.method == "none" and achieved.reason == verdict.reason
+    verdict, achieved = run(frame(paint(*twins), x_m=0.01))
+    assert not verdict.ok and "the camera moved 10 mm" in verdict.reason and achieved.reason == verdict.reason
