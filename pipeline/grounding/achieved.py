@@ -14,7 +14,13 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import RGBDFrame
 from pipeline.contact.sampling import estimate_normals
-from pipeline.grounding.compare import Symmetry, object_centre, object_symmetry
+from pipeline.grounding.compare import (
+    Symmetry,
+    object_centre,
+    object_symmetry,
+    quarter_turn,
+    square_footprint_axis,
+)
 from pipeline.grounding.ground import ground
 from pipeline.grounding.seen_symmetry import box_turns
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
@@ -54,9 +60,10 @@ def _points(frame: RGBDFrame, mask: np.ndarray) -> np.ndarray:
     return frame.intrinsics.unproject_depth_image(frame.depth)[mask & np.isfinite(frame.depth)]
 
 
-def hidden_by_shape(points: np.ndarray) -> Symmetry | None:
+def hidden_by_shape(points: np.ndarray, up_camera: np.ndarray) -> Symmetry | None:
     """The turns the seen points' shape hides (camera frame): a ball's, a body of revolution's about its axis, a
-    box's onto itself (seen_symmetry.box_turns); None when every turn shows."""
+    box's onto itself (seen_symmetry.box_turns), else a square footprint's quarter turns about the vertical
+    `up_camera` (a small cube's faces can be too few to tell: square_footprint_axis); None when every turn shows."""
     symmetry = object_symmetry(points)
     if symmetry is not None:
         return symmetry
@@ -65,7 +72,12 @@ def hidden_by_shape(points: np.ndarray) -> Symmetry | None:
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
     sparse = np.asarray(cloud.voxel_down_sample(VOXEL_M).points)  # a sensor's points are far denser than faces need
     box = box_turns(sparse, estimate_normals(sparse, NORMAL_RADIUS_M, np.zeros(3)))
-    return None if box is None else Symmetry(box[0], None, turns=box[1])
+    if box is not None:
+        return Symmetry(box[0], None, turns=box[1])
+    up = square_footprint_axis(points, up_camera)
+    if up is None:
+        return None
+    return Symmetry(object_centre(points), None, turns=np.array([quarter_turn(up, k) for k in range(4)]))
 
 
 def expected_hints(
@@ -109,7 +121,8 @@ def measure_achieved(
     quarter). A near-symmetric shape otherwise lets the registration settle on a twin tipped over or turned, which
     the comparison would then judge."""
     points = _points(before, mask_before)
-    symmetry = None if anchor_before is not None else hidden_by_shape(points)
+    up_camera = before.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+    symmetry = None if anchor_before is not None else hidden_by_shape(points, up_camera)
     centre = object_centre(points)
     if symmetry is not None and symmetry.ball:
         seen_after = object_symmetry(_points(after, mask_after))
@@ -127,7 +140,6 @@ def measure_achieved(
         anchor0=anchor_before,
         depth1_measured=True,
     )
-    up_camera = before.T_base_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
     hints = [] if expected is None else expected_hints(*expected, centre, up_camera, symmetry)
     motion = ground(inp, features, config, T_base_camera=before.T_base_camera, hints=hints)
     return AchievedMotion(motion.R, motion.t, centre, symmetry, motion)

@@ -11,7 +11,9 @@ look alike (a can: one radius all along) shows no half turn end for end either (
 is stood up), so the smaller of the two errors counts; a ball shows no turn at all and is compared at its
 centre. A box shows none of the turns that carry it onto itself (its half turns about its face axes, and the
 quarter turns that swap sides of one length: seen_symmetry.box_turns, the simulator truth's own rule): the
-smallest error over them counts, compared at the box's middle. All are recognised from the initial points; a
+smallest error over them counts, compared at the box's middle; where its faces are too few or too small to tell
+(a small cube seen from afar), a box standing on a square footprint (square_footprint_axis) hides its quarter turns
+about the vertical, compared at its seen centre. All are recognised from the initial points; a
 print is not read (the simulator's truth judges shapes alone, and a print's turn judged on a uniform object whose
 shading reads as a print would be a false failure).
 """
@@ -24,12 +26,14 @@ from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
+from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from pipeline.contact.symmetry import TOLERANCE_REL, revolution_axis
 
 INTENDED_DEG = 10.0
 SAME_SIDE_M = 0.005  # a box's sides this close are one length: a turn swapping them does not show
+RECTANGLE_FILL = 0.9  # a box's footprint fills its smallest rectangle; a disc fills pi/4 of it
 
 
 def rotation_deg(R: np.ndarray) -> float:
@@ -96,6 +100,30 @@ def object_symmetry(points_camera: np.ndarray) -> Symmetry | None:
     if off <= TOLERANCE_REL * float(np.linalg.norm(np.ptp(P, axis=0))):
         return Symmetry(centre, None)
     return Symmetry(axis.point, axis.direction, axis.ends_alike)
+
+
+def square_footprint_axis(points_camera: np.ndarray, up_camera: np.ndarray) -> np.ndarray | None:
+    """The vertical (camera frame) when the object is a box standing on a square footprint, so that turned a
+    quarter about the vertical it shows the same outline; None otherwise. points_camera (N, 3): its seen points;
+    up_camera: the table's normal. Its print is not read (a box whose texture shows the quarter turn counts as
+    square too, as it does for the simulator's truth); the seen points' rectangle is off by up to 5 mm a side."""
+    from cv2 import minAreaRect
+
+    P = np.asarray(points_camera, dtype=np.float64)
+    if len(P) < 50:
+        return None
+    up = up_camera / np.linalg.norm(up_camera)
+    e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    flat = np.column_stack([P @ e1, P @ np.cross(up, e1)]).astype(np.float32)
+    (_, _), (a, b), _ = minAreaRect(flat)
+    if a * b <= 0 or float(ConvexHull(flat).volume) < RECTANGLE_FILL * a * b or abs(a - b) > SAME_SIDE_M:
+        return None
+    return up
+
+
+def quarter_turn(axis: np.ndarray, k: int) -> np.ndarray:
+    return Rotation.from_rotvec(k * np.pi / 2 * axis).as_matrix()
 
 
 def without_turn_about(R: np.ndarray, axis: np.ndarray) -> np.ndarray:

@@ -14,10 +14,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
-from pipeline.grounding.hypotheses import ball_hypotheses, face_hypotheses, sweep_hypotheses
+from pipeline.grounding.hypotheses import ball_hypotheses, end_for_end, face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.prepare import Prepared, prepare, refuse
-from pipeline.grounding.seen_symmetry import seen_symmetry
+from pipeline.grounding.seen_symmetry import as_seen, shape_symmetry
 from pipeline.grounding.select import select_motion
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
@@ -71,6 +71,12 @@ def ground(
     sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
     candidates = fits + face_hypotheses(view0, view1) + ball_hypotheses(view0, view1) + sweep
     view_score, sim, hinted = select_motion(candidates, view0, view1, K, size, cfg, hints)
+    shape = shape_symmetry(view0.cloud, view0.normals)
+    twins = [] if hinted else end_for_end(sim, shape, view0.cloud, view1.cloud)
+    if twins:  # the winner turned end for end, refined and scored alike: taken where it explains the views better
+        twin_score, twin, _ = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
+        if twin_score > view_score:
+            view_score, sim = twin_score, twin
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())
@@ -128,9 +134,7 @@ def ground(
             "threshold_m": threshold,
             **({"hint_taken": True} if hinted else {}),
         },
-        symmetry=seen_symmetry(
-            view0.cloud, view0.normals, [(inp.rgb0, inp.mask0, pp.points0), (inp.rgb1, inp.mask1, pp.points1)]
-        ),
+        symmetry=as_seen(shape, [(inp.rgb0, inp.mask0, pp.points0), (inp.rgb1, inp.mask1, pp.points1)]),
         **common,
     )
 

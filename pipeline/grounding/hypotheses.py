@@ -24,6 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import ball_centre
+from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View, depth_tolerance
 
@@ -227,3 +228,34 @@ def _distinct(rotations: np.ndarray, min_deg: float, count: int) -> list[int]:
             if len(taken) == count:
                 break
     return taken
+
+
+END_FOR_END_SPIN_DEG = 30.0  # the end-for-end twins spun about the body's axis in these steps
+
+
+def end_for_end(motion: Similarity, shape: SeenSymmetry, points0: np.ndarray, points1: np.ndarray) -> list[Similarity]:
+    """The motion's twins turned end for end first (a half turn across a body of revolution's axis, about the
+    middle of its seen length; points0 its seen points), then spun about its axis in END_FOR_END_SPIN_DEG steps (the
+    spin decides which side of the seen surface faces the camera), each also slid along the axis until the middles of
+    the two views' lengths meet (points1: the goal's): a bottle's registration may settle on the twin that puts its neck
+    where its base goes, which no hypothesis near the truth then corrects. None for any other shape."""
+    if shape.axis is None:
+        return []
+    a = shape.axis / np.linalg.norm(shape.axis)
+    middle = shape.centre + a * _mid((points0 - shape.centre) @ a)
+    a1 = motion.R @ a  # the axis where the goal has it
+    across = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    flip = Rotation.from_rotvec(np.pi * across / np.linalg.norm(across))
+    spins = Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, END_FOR_END_SPIN_DEG))[:, None] * a)
+    out = []
+    for H in (spins * flip).as_matrix():
+        R = motion.R @ H
+        twin = Similarity(motion.scale, R, motion.t + motion.scale * motion.R @ (middle - H @ middle))
+        slide = _mid(points1 @ a1) - _mid(twin.apply(points0) @ a1)
+        out += [twin, Similarity(twin.scale, R, twin.t + slide * a1)]
+    return out
+
+
+def _mid(values: np.ndarray) -> float:
+    """The middle of the values' extent, robust to a few strays."""
+    return 0.5 * float(np.percentile(values, 1) + np.percentile(values, 99))

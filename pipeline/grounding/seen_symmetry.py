@@ -54,7 +54,11 @@ def seen_symmetry(
     """The symmetry of the object whose initial points (N, 3, camera frame) and normals are given, seen in `views`
     (rgb uint8 (H, W, 3), object mask (H, W), point map (H, W, 3) with NaN where unknown): none when a print shows
     on it in any view."""
-    shape = shape_symmetry(points0, normals0)
+    return as_seen(shape_symmetry(points0, normals0), views)
+
+
+def as_seen(shape: SeenSymmetry, views: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> SeenSymmetry:
+    """The shape's symmetry (shape_symmetry), or none when a print shows on the object in any of `views`."""
     if shape.kind != "none" and any(shows_print(*view) for view in views):
         return SeenSymmetry("none", shape.centre, shape_kind=shape.kind)
     return shape

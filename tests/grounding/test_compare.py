@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pipeline.grounding.achieved import hidden_by_shape
-from pipeline.grounding.compare import Symmetry, compare, object_symmetry
+from pipeline.grounding.compare import Symmetry, compare, object_symmetry, square_footprint_axis
 
 
 def yaw(deg: float) -> np.ndarray:
@@ -15,6 +15,7 @@ def yaw(deg: float) -> np.ndarray:
 
 
 CAM = np.eye(3)  # camera frame == base frame in these cases: the base z axis is the camera's
+UP = np.array([0.0, 0.0, 1.0])
 
 
 def judge(goal_R, goal_t, achieved_R, achieved_t, centre, R_base_camera=CAM, symmetry=None):
@@ -197,20 +198,33 @@ def box_top_and_sides(sides_m, yaw_deg: float, centre=(0.1, 0.0, 0.8), step_m: f
     return np.vstack([top, front, side]) @ yaw(yaw_deg).T + np.asarray(centre)
 
 
-def test_the_turns_a_box_shows_are_told_by_its_equal_sides():
-    """A cube hides 24 turns, a box on a square footprint 8, an oblong one its 4 half turns; a can is no box."""
-    assert len(hidden_by_shape(box_top_and_sides((0.05, 0.05, 0.05), 37.0)).turns) == 24
-    assert len(hidden_by_shape(box_top_and_sides((0.060, 0.056, 0.044), 37.0)).turns) == 8
-    assert len(hidden_by_shape(box_top_and_sides((0.080, 0.050, 0.030), 37.0)).turns) == 4
+def test_a_box_on_a_square_footprint_is_told_from_an_oblong_one_and_a_can():
+    up = np.array([0.0, 0.0, 1.0])
+    assert square_footprint_axis(box_top_and_sides((0.060, 0.056, 0.044), 37.0), up) is not None
+    assert square_footprint_axis(box_top_and_sides((0.060, 0.048, 0.044), 37.0), up) is None
     angle, height = np.meshgrid(np.linspace(0, 2 * np.pi, 120), np.linspace(0, 0.1, 30))
     can = np.column_stack([0.03 * np.cos(angle.ravel()), 0.03 * np.sin(angle.ravel()), height.ravel()])
-    assert hidden_by_shape(can).turns is None
+    assert square_footprint_axis(can, up) is None  # a disc fills pi/4 of its square
+
+
+def test_the_turns_a_box_shows_are_told_by_its_equal_sides():
+    """A cube hides 24 turns, a box on a square footprint 8, an oblong one its 4 half turns; a can is no box; a box
+    whose top is partly hidden (its faces no longer tell it), its square footprint's quarter turns."""
+    assert len(hidden_by_shape(box_top_and_sides((0.05, 0.05, 0.05), 37.0), UP).turns) == 24
+    assert len(hidden_by_shape(box_top_and_sides((0.060, 0.056, 0.044), 37.0), UP).turns) == 8
+    assert len(hidden_by_shape(box_top_and_sides((0.080, 0.050, 0.030), 37.0), UP).turns) == 4
+    angle, height = np.meshgrid(np.linspace(0, 2 * np.pi, 120), np.linspace(0, 0.1, 30))
+    can = np.column_stack([0.03 * np.cos(angle.ravel()), 0.03 * np.sin(angle.ravel()), height.ravel()])
+    assert hidden_by_shape(can, UP) is None or hidden_by_shape(can, UP).turns is None
+    box = box_top_and_sides((0.060, 0.058, 0.044), 0.0) - [0.1, 0.0, 0.8]
+    hidden = (box[:, 2] > 0.043) & (box[:, 0] + box[:, 1] > 0.02)  # a corner of its top hidden: no rectangle
+    assert len(hidden_by_shape(box[~hidden] + [0.1, 0.0, 0.8], UP).turns) == 4  # its square footprint's, about z
 
 
 def _box_twin(goal: np.ndarray, achieved: np.ndarray, sides_m) -> object:
     """The verdict on a box turned by `achieved` (about its middle) against a goal turning it by `goal`."""
     points = box_top_and_sides(sides_m, 0.0)
-    symmetry = hidden_by_shape(points)
+    symmetry = hidden_by_shape(points, UP)
     c = symmetry.centre
     return judge(goal, about_centre(goal, c), achieved, about_centre(achieved, c), c, symmetry=symmetry)
 
