@@ -51,4 +51,4 @@ def true_motion_agreement(inp: GroundingInput, twins: list[Similarity], cfg: Gro
         return 0.0
     # each twin on its own: ground()'s coarse ranking keeps only a few, and a look-alike twin may push out the one
     # that keeps the seen side in view
-    return max(float(select_motion([twin], pp.view0, pp.view1, inp.intrinsics, pp.size, cfg)[0]) for twin in twins)
+    return max(float(select_motion([twin], pp.view0, pp.view1, inp.intrinsics, pp.size, cfg).score) for twin in twins)

@@ -70,13 +70,14 @@ def ground(
     up = _up_direction(pp.points0[background & np.isfinite(pp.depth0)], T_base_camera, rng)
     sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
     candidates = fits + face_hypotheses(view0, view1) + ball_hypotheses(view0, view1) + sweep
-    view_score, sim, hinted = select_motion(candidates, view0, view1, K, size, cfg, hints)
+    chosen = select_motion(candidates, view0, view1, K, size, cfg, hints)
     shape = shape_symmetry(view0.cloud, view0.normals)
-    twins = [] if hinted else end_for_end(sim, shape, view0.cloud, view1.cloud)
+    twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)
     if twins:  # the winner turned end for end, refined and scored alike: taken where it explains the views better
-        twin_score, twin, _ = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
-        if twin_score > view_score:
-            view_score, sim = twin_score, twin
+        twin = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
+        if twin.ranked > chosen.ranked:
+            chosen = twin
+    sim, view_score, hinted = chosen.motion, chosen.score, chosen.hinted
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())

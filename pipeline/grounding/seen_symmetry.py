@@ -14,7 +14,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from pipeline.grounding.compare import SAME_SIDE_M, object_centre, object_symmetry
+from pipeline.contact.symmetry import revolution_axis
+from pipeline.grounding.compare import SAME_SIDE_M, Symmetry, object_centre, object_symmetry
 from pipeline.grounding.hypotheses import AXIS_MAPS, FACE_TOL_DEG, face_frame
 from pipeline.grounding.types import SeenSymmetry
 
@@ -30,6 +31,7 @@ REVOLUTION_SHARE = 0.97
 SLICE_M = 0.005
 BALL_NORMAL_DEG = 10.0  # a ball's normals point away from its centre: this close, BALL_NORMAL_SHARE of them
 BALL_NORMAL_SHARE = 0.9  # (a bowl's inside lies on a sphere too, its normals pointing in)
+BOWL_INWARD_SHARE = 0.6  # points on a sphere, this many facing its centre: a bowl's inside, tried as a revolution
 BOX_FACE_FILL = 0.88  # each seen face of MIN_FACE_POINTS fills its rectangle this well (a disc fills pi/4 of it)
 MIN_FACE_POINTS = 100
 # a print: neighbouring pixels PRINT_STEP_PX apart on one smooth patch of surface (normals within
@@ -69,9 +71,13 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:
     P = np.asarray(points, dtype=np.float64)
     revolution = object_symmetry(P)
     if revolution is not None and revolution.axis is None:
-        if not _radial_normals(P, normals, revolution.centre):
+        cos = _radial_cosines(P, normals, revolution.centre)
+        if np.mean(cos > np.cos(np.radians(BALL_NORMAL_DEG))) >= BALL_NORMAL_SHARE:
+            return SeenSymmetry("ball", revolution.centre, shape_kind="ball")
+        if np.mean(cos < 0.0) < BOWL_INWARD_SHARE:
             return SeenSymmetry("none", object_centre(P))
-        return SeenSymmetry("ball", revolution.centre, shape_kind="ball")
+        axis = revolution_axis(P)  # a bowl's inside: on a sphere, facing in, and it may go round an axis
+        revolution = None if axis is None else Symmetry(axis.point, axis.direction, axis.ends_alike)
     if revolution is not None and _whole_revolution(P, normals, revolution.centre, revolution.axis):
         kind = "revolution_ends_alike" if revolution.ends_alike else "revolution"
         return SeenSymmetry(kind, revolution.centre, axis=revolution.axis, shape_kind=kind)
@@ -82,12 +88,11 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:
     return SeenSymmetry("none", object_centre(P))
 
 
-def _radial_normals(points: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> bool:
-    """Whether the normals point away from `centre`, as a ball's do (see BALL_NORMAL_SHARE)."""
+def _radial_cosines(points: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Cosine between each normal and the direction away from `centre`: near 1 on a ball, below 0 in a bowl."""
     radial = points - centre
     radial /= np.maximum(np.linalg.norm(radial, axis=1, keepdims=True), 1e-9)
-    cos = np.einsum("ij,ij->i", radial, normals)
-    return bool(np.mean(cos > np.cos(np.radians(BALL_NORMAL_DEG))) >= BALL_NORMAL_SHARE)
+    return np.einsum("ij,ij->i", radial, normals)
 
 
 def _whole_revolution(points: np.ndarray, normals: np.ndarray, point: np.ndarray, axis: np.ndarray) -> bool:

@@ -5,6 +5,7 @@ the goal cloud (ICP fitness); the product of the two is its score."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -12,13 +13,34 @@ from drivers.types import CameraIntrinsics
 from pipeline.grounding.refine import IcpTarget
 from pipeline.grounding.types import GroundingConfig
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import View, view_consistency
+from pipeline.grounding.verify import Agreement, View, view_consistency
 
 MAX_ICP_TURN_DEG = 15.0  # ICP may polish a hypothesis, not replace it
 MAX_ICP_SHIFT_REL = 0.25
 MIN_FITNESS = 0.3  # the share of either cloud with a counterpart in the other: below it the clouds do not meet
 DRIFT_MARGIN = 0.1  # ICP that loses more fitness than this has drifted off
 HINT_MARGIN = 0.02  # view agreement within this of the best: the views do not tell the motions apart
+
+
+@dataclass(frozen=True)
+class Selected:
+    """The chosen motion and how well it explains the views: its fine view agreement and its ICP fitness (1 for a
+    hint, which fitness does not rank)."""
+
+    motion: Similarity
+    agreement: Agreement
+    fitness: float
+    hinted: bool = False
+
+    @property
+    def score(self) -> float:
+        """What refusal is judged on: geometric agreement times fitness (colour drifts in an editor's goal)."""
+        return self.agreement.geometry * self.fitness
+
+    @property
+    def ranked(self) -> float:
+        """What motions are compared on: geometry with colour as a tie-break, times fitness."""
+        return self.agreement.ranked * self.fitness
 
 
 def select_motion(
@@ -29,9 +51,9 @@ def select_motion(
     size: float,
     cfg: GroundingConfig,
     hints: Sequence[Similarity] = (),
-) -> tuple[float, Similarity, bool]:
-    """(score, motion, whether it is a hint's) of the best candidate after refinement: a candidate's score is its
-    view agreement times its ICP fitness, a hint's its view agreement alone.
+) -> Selected:
+    """The best candidate after refinement, ranked by its view agreement (Agreement.ranked) times its ICP fitness,
+    a hint by its view agreement alone.
 
     `hints` (motions known to be likely, such as the goal's when verifying) skip the coarse cut, are kept unpolished
     where ICP finds the clouds do not meet, and the best of them is taken when its view agreement is within
@@ -39,13 +61,13 @@ def select_motion(
     ICP fitness does not rank hints: a turn that shows other faces loses fitness (the faces first seen turn out of
     view; a bottle stood up shows a side it lay on) that a twin keeping the seen faces in view does not."""
     coarse = max(cfg.inlier_min_m, 0.1 * size)
-    ranked = sorted(candidates, key=lambda h: -view_consistency(h, view0, view1, K, coarse))[: cfg.refine_top]
+    ranked = sorted(candidates, key=lambda h: -view_consistency(h, view0, view1, K, coarse).ranked)[: cfg.refine_top]
     fine = max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
     target = IcpTarget(view1.cloud, view1.normals) if cfg.icp else None
 
-    def scored(hypotheses: Sequence[Similarity], keep: bool = False) -> list[tuple[float, float, Similarity]]:
-        """(view agreement, ICP fitness, refined motion) of each hypothesis the clouds meet on (of every one with
-        `keep`, unpolished where they do not)."""
+    def scored(hypotheses: Sequence[Similarity], keep: bool = False) -> list[Selected]:
+        """Each hypothesis the clouds meet on (every one with `keep`, unpolished where they do not), refined and
+        checked at the fine tolerance."""
         out = []
         for hypothesis in hypotheses:
             refined = _refine(hypothesis, view0.cloud, target, size, cfg) if target else (hypothesis, 1.0)
@@ -53,18 +75,22 @@ def select_motion(
                 refined = (hypothesis, 0.0)
             if refined is not None:
                 sim, fitness = refined
-                out.append((view_consistency(sim, view0, view1, K, fine), fitness, sim))
+                out.append(Selected(sim, view_consistency(sim, view0, view1, K, fine), fitness))
         return out
 
     found, hinted = scored(ranked), scored(hints, keep=True)
+    best = max(found, key=lambda s: s.ranked) if found else None
     if hinted:
-        hint = max(hinted, key=lambda x: x[0])
-        if not found or hint[0] >= max(found, key=lambda x: x[0] * x[1])[0] - HINT_MARGIN:
-            return hint[0], hint[2], True
-    if not found:
-        return (0.0, ranked[0], False) if ranked else (0.0, hints[0], True)
-    agreement, fitness, sim = max(found, key=lambda x: x[0] * x[1])
-    return agreement * fitness, sim, False
+        hint = max(hinted, key=lambda s: s.agreement.ranked)
+        if best is None or hint.agreement.ranked >= best.agreement.ranked - HINT_MARGIN:
+            return Selected(hint.motion, hint.agreement, 1.0, hinted=True)
+    if best is None:
+        return (
+            Selected(ranked[0], Agreement(0.0, 0.0), 0.0)
+            if ranked
+            else Selected(hints[0], Agreement(0.0, 0.0), 0.0, True)
+        )
+    return best
 
 
 def _refine(

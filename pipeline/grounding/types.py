@@ -35,7 +35,13 @@ class GroundingConfig(StrictModel):
     hypotheses: int = Field(default=6, ge=1, le=100, description="RANSAC hypotheses verified against the images")
     sweep_hypotheses: int = Field(default=20, ge=0, le=500, description="geometric sweep hypotheses verified likewise")
     refine_top: int = Field(default=8, ge=1, le=100, description="hypotheses refined by ICP after a coarse view check")
-    min_view_score: float = Field(default=0.4, ge=0, le=1, description="refuse below this view agreement")
+    min_view_score: float = Field(
+        default=0.3,
+        ge=0,
+        le=1,
+        description="refuse below this geometric view agreement: 37 of 40 true motions of the raycast set (seed 9001) "
+        "scored over it, a pan registered onto a tomato's mask 0.24",
+    )
     min_inliers: int = Field(default=8, ge=3)
     min_inlier_ratio: float = Field(default=0.05, ge=0, le=1)
     scale_range: tuple[float, float] = Field(default=(0.9, 1.1), description="plausible similarity scale")

@@ -65,5 +65,35 @@ def test_depth_agreement_is_no_finer_than_the_goal_depths_error():
         return make_view(cloud, chroma[obj], depth, obj, chroma, 0.004, sigma)
 
     still = Similarity(1.0, np.eye(3), np.zeros(3))
-    assert view_consistency(still, view(depth0, 0.0), view(depth1, 0.0), K, 0.004) < 0.1
-    assert view_consistency(still, view(depth0, 0.0), view(depth1, 0.005), K, 0.004) > 0.9
+    assert view_consistency(still, view(depth0, 0.0), view(depth1, 0.0), K, 0.004).geometry < 0.1
+    assert view_consistency(still, view(depth0, 0.0), view(depth1, 0.005), K, 0.004).geometry > 0.9
+
+
+def test_a_right_motion_whose_colours_an_editor_turned_still_agrees_and_colour_ranks_a_geometric_tie():
+    """Geometry decides agreement (an editor's hue shift leaves a right motion its depth and silhouette); colour
+    ranks motions that geometry cannot tell apart (a two-coloured block turned half way about its middle)."""
+    from drivers.types import CameraIntrinsics
+    from pipeline.grounding.umeyama import Similarity
+    from pipeline.grounding.verify import make_view, view_consistency
+
+    K = CameraIntrinsics(80, 60, 80.0, 80.0, 39.5, 29.5)
+    obj = np.zeros((60, 80), bool)
+    obj[20:40, 30:50] = True
+    depth = np.where(obj, 0.8, 1.0).astype(np.float32)
+    chroma = np.full((60, 80, 3), 1 / 3, np.float32)
+    chroma[:, :40] = (0.5, 0.25, 0.25)  # its left half red
+    recoloured = chroma[..., ::-1].copy()  # the goal's hue turned everywhere
+
+    def view(colours):
+        cloud = K.unproject_depth_image(depth)[obj]
+        return make_view(cloud, colours[obj], depth, obj, colours, 0.004)
+
+    still = Similarity(1.0, np.eye(3), np.zeros(3))
+    middle = K.unproject_depth_image(depth)[obj].mean(axis=0)
+    half = np.diag([-1.0, -1.0, 1.0])  # half a turn about the viewing axis through its middle
+    turned = Similarity(1.0, half, middle - half @ middle)
+    drifted = view_consistency(still, view(chroma), view(recoloured), K, 0.004)
+    assert drifted.geometry > 0.9 and drifted.colour < 0.6
+    right, twin = (view_consistency(m, view(chroma), view(chroma), K, 0.004) for m in (still, turned))
+    assert right.geometry == pytest.approx(twin.geometry, abs=0.05)
+    assert right.ranked > twin.ranked + 0.1

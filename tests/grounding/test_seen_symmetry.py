@@ -97,15 +97,16 @@ def test_a_flat_disc_with_a_rim_is_no_box():
     assert shape_symmetry(*_seen(np.vstack([top, rim]), normals, np.array([0.0, 0.0, 0.8]))).kind != "box"
 
 
-def test_a_ball_is_a_ball_and_a_bowls_inside_is_not():
+def test_a_ball_is_a_ball_and_a_bowls_inside_goes_round_its_axis():
     rng = np.random.default_rng(2)
     d = rng.normal(size=(4000, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     ball = shape_symmetry(*_seen(0.04 * d, d, np.array([0.0, 0.0, 0.8])))
     assert ball.kind == "ball"
     inside = d[d[:, 2] < -0.2]  # a bowl's inner surface: on a sphere, its normals pointing to the centre
-    bowl = _seen(0.08 * inside, -inside, np.array([0.0, 0.0, 0.8]))
-    assert shape_symmetry(*bowl).kind == "none"
+    bowl = shape_symmetry(*_seen(0.08 * inside, -inside, np.array([0.0, 0.0, 0.8])))
+    assert bowl.kind == "revolution"  # on a sphere, but no ball
+    assert abs(abs(bowl.axis @ (TOWARD @ [0.0, 0.0, 1.0])) - 1) < 0.05
 
 
 def _plane_view(pattern: str, rng: np.random.Generator):
