@@ -17,7 +17,8 @@ from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.hypotheses import ball_hypotheses, end_for_end, face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.prepare import Prepared, prepare, refuse
-from pipeline.grounding.seen_symmetry import as_seen, shape_symmetry
+from pipeline.grounding.seen_symmetry import as_seen, off_support, shape_symmetry
+from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.select import select_motion
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
@@ -47,6 +48,12 @@ def ground(
     common = {"depth_residual_m": align.residual_m, "T_base_camera": T_base_camera, "object_size_m": size}
     if inp.anchor0 is not None:  # a part that turns about where it meets its anchor (a lid on its box)
         return _ground_hinged(inp, pp, cfg, common)
+    if pp.hue_overlap is not None and pp.hue_overlap < cfg.min_hue_overlap:  # geometry alone cannot see it
+        return refuse(
+            f"the goal's object is not coloured like the initial one: their hues share {pp.hue_overlap:.0%} "
+            f"(need {cfg.min_hue_overlap:.0%}); is the goal mask on another object?",
+            **common,
+        )
     rng = np.random.default_rng(cfg.seed)
     src = np.argwhere(pp.valid0)[:, ::-1]
     if len(src) > cfg.max_source_pixels:
@@ -71,13 +78,19 @@ def ground(
     sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
     candidates = fits + face_hypotheses(view0, view1) + ball_hypotheses(view0, view1) + sweep
     chosen = select_motion(candidates, view0, view1, K, size, cfg, hints)
-    shape = shape_symmetry(view0.cloud, view0.normals)
+    shape = shape_symmetry(*off_support(view0.cloud, view0.normals, pp.points0, inp.mask0, up))
     twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)
     if twins:  # the winner turned end for end, refined and scored alike: taken where it explains the views better
         twin = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
         if twin.ranked > chosen.ranked:
             chosen = twin
     sim, view_score, hinted = chosen.motion, chosen.score, chosen.hinted
+    views = [(inp.rgb0, inp.mask0, pp.points0), (inp.rgb1, inp.mask1, pp.points1)]
+    symmetry, turns_margin = as_seen(shape, views), None
+    if shape.kind != "none" and not hinted:  # do the views tell the motion from its shape's twins?
+        fine = max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
+        printed = symmetry.kind == "none"
+        sim, symmetry, turns_margin = read_turns(sim, shape, printed, view0, view1, K, fine)
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())
@@ -134,8 +147,9 @@ def ground(
             "view_score": view_score,
             "threshold_m": threshold,
             **({"hint_taken": True} if hinted else {}),
+            **({"turns_margin": turns_margin} if turns_margin is not None else {}),
         },
-        symmetry=as_seen(shape, [(inp.rgb0, inp.mask0, pp.points0), (inp.rgb1, inp.mask1, pp.points1)]),
+        symmetry=symmetry,
         **common,
     )
 

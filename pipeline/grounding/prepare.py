@@ -30,7 +30,13 @@ SENSOR_NOISE_REL = 0.0015  # a depth camera's per-pixel noise / depth: a model's
 MAX_SMOOTH_PX = 3.0  # ... over at most this many pixels (sigma); under MIN_SMOOTH_PX it is left as it is
 MIN_SMOOTH_PX = 0.7
 COLOUR_SAMPLES = 20000
-COLOUR_FIT_ROUNDS = 3  # least squares, then refits without the pixels that changed (shadows, the object's old place)
+COLOUR_FIT_ROUNDS = 3
+# a table of one or two colours does not fix a gain: the fit leans to a gain of 1 unless the background's levels
+# spread more than this (a least-squares gain fitted on a narrow range turned a grey plate blue)
+GAIN_PRIOR_LEVELS = 25.0
+HUE_BINS = 12
+HUE_MIN_SATURATION = 0.15  # an object's mean saturation below this: too grey for its hue to be compared
+HUE_MIN_VALUE = 40  # pixels darker than this (of 255) carry no hue  # least squares, then refits without the pixels that changed (shadows, the object's old place)
 
 
 def object_size(points: np.ndarray) -> float:
@@ -126,14 +132,32 @@ def match_colours(rgb: np.ndarray, reference: np.ndarray, background: np.ndarray
     keep = np.ones(len(sel), bool)
     gains, offsets = np.ones(3), np.zeros(3)
     for _ in range(COLOUR_FIT_ROUNDS):
-        for c in range(3):
-            A = np.column_stack([x[keep, c], np.ones(int(keep.sum()))])
-            (gains[c], offsets[c]), *_ = np.linalg.lstsq(A, y[keep, c], rcond=None)
+        xs, ys = x[keep], y[keep]
+        mx, my = xs.mean(axis=0), ys.mean(axis=0)
+        var, cov = ((xs - mx) ** 2).mean(axis=0), ((xs - mx) * (ys - my)).mean(axis=0)
+        gains = (cov + GAIN_PRIOR_LEVELS**2) / (var + GAIN_PRIOR_LEVELS**2)  # a gain of 1 unless the colours vary
+        offsets = my - gains * mx
         error = np.abs(x * gains + offsets - y).max(axis=1)
         keep = error <= max(3.0 * np.median(error), 1.0)
         if keep.sum() < 50:
             break
     return np.clip(out * gains.astype(np.float32) + offsets.astype(np.float32), 0.0, 255.0)
+
+
+def hue_overlap(rgb0: np.ndarray, mask0: np.ndarray, rgb1: np.ndarray, mask1: np.ndarray) -> float | None:
+    """How much the two objects' colours share (0..1): the intersection of their hue histograms, each pixel weighted
+    by its saturation; None when either object is too grey or dark for hue to mean anything. An editor's drift, a
+    re-textured patch or a turned print moves part of the hues; another object in the goal's mask (the red block
+    become the blue one) moves all of them."""
+    hists = []
+    for rgb, mask in ((rgb0, mask0), (rgb1, mask1)):
+        hsv = cv2.cvtColor(np.clip(rgb, 0, 255).astype(np.uint8)[mask][None], cv2.COLOR_RGB2HSV)[0].astype(np.float64)
+        weight = np.where(hsv[:, 2] >= HUE_MIN_VALUE, hsv[:, 1] / 255.0, 0.0)
+        if len(weight) == 0 or weight.mean() < HUE_MIN_SATURATION:
+            return None
+        hist = np.bincount((hsv[:, 0] * HUE_BINS / 180.0).astype(int) % HUE_BINS, weight, HUE_BINS)
+        hists.append(hist / hist.sum())
+    return float(np.minimum(*hists).sum())
 
 
 @dataclass(frozen=True)
@@ -150,6 +174,7 @@ class Prepared:
     size: float  # the object's extent [m]
     view0: View
     view1: View  # its depth_sigma_m: the error left in the goal depth (0 when measured)
+    hue_overlap: float | None  # how much the objects' colours share (hue_overlap), None when too grey to tell
 
     @property
     def cloud0(self) -> np.ndarray:
@@ -186,8 +211,10 @@ def prepare(
     cloud0 = points0[valid0]
     size = object_size(cloud0)
     chroma0 = chromaticity(inp.rgb0)
-    chroma1 = chromaticity(match_colours(inp.rgb1, inp.rgb0, background, cfg.seed))
+    rgb1 = match_colours(inp.rgb1, inp.rgb0, background, cfg.seed)
+    chroma1 = chromaticity(rgb1)
     voxel = max(cfg.icp_voxel_m, size / 40)
     view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
     view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel, error)
-    return Prepared(depth0, depth1, align, points0, points1, valid0, valid1, size, view0, view1)
+    hues = hue_overlap(inp.rgb0, inp.mask0, rgb1, inp.mask1)
+    return Prepared(depth0, depth1, align, points0, points1, valid0, valid1, size, view0, view1, hues)

@@ -34,6 +34,8 @@ BALL_NORMAL_SHARE = 0.9  # (a bowl's inside lies on a sphere too, its normals po
 BOWL_INWARD_SHARE = 0.6  # points on a sphere, this many facing its centre: a bowl's inside, tried as a revolution
 BOX_FACE_FILL = 0.88  # each seen face of MIN_FACE_POINTS fills its rectangle this well (a disc fills pi/4 of it)
 MIN_FACE_POINTS = 100
+SUPPORT_RING_PX = (4, 12)  # the ring around the mask that shows what the object stands on (inner, outer)
+SUPPORT_CLEARANCE_M = 0.005
 # a print: neighbouring pixels PRINT_STEP_PX apart on one smooth patch of surface (normals within
 # SAME_NORMAL_DEG, depths within SAME_SURFACE_M) that differ in log brightness or chromaticity beyond
 # PRINT_CONTRAST (3.5 times what a sensor's noise of 2-3 levels in 255 leaves on a dark object after PRINT_BLUR_PX),
@@ -64,6 +66,23 @@ def as_seen(shape: SeenSymmetry, views: list[tuple[np.ndarray, np.ndarray, np.nd
     if shape.kind != "none" and any(shows_print(*view) for view in views):
         return SeenSymmetry("none", shape.centre, shape_kind=shape.kind)
     return shape
+
+
+def off_support(
+    points: np.ndarray, normals: np.ndarray, point_map: np.ndarray, mask: np.ndarray, up: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The object's points (and normals) more than SUPPORT_CLEARANCE_M above what it stands on: a segmenter's mask
+    bleeds a few pixels onto the table around the object, and those points break any shape test. The support's
+    height is the median of the pixels in a ring SUPPORT_RING_PX around the mask (point_map: the view's, NaN where
+    unknown; up: the table's normal, camera frame). All points where too few are left or the ring shows nothing."""
+    near = cv2.dilate(mask.astype(np.uint8), np.ones((2 * SUPPORT_RING_PX[1] + 1,) * 2, np.uint8)).astype(bool)
+    inner = cv2.dilate(mask.astype(np.uint8), np.ones((2 * SUPPORT_RING_PX[0] + 1,) * 2, np.uint8)).astype(bool)
+    ring = point_map[near & ~inner]
+    ring = ring[np.isfinite(ring).all(axis=1)]
+    if len(ring) < MIN_FACE_POINTS:
+        return points, normals
+    keep = points @ up - float(np.median(ring @ up)) > SUPPORT_CLEARANCE_M
+    return (points[keep], normals[keep]) if keep.sum() >= MIN_FACE_POINTS else (points, normals)
 
 
 def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:

@@ -42,6 +42,13 @@ class GroundingConfig(StrictModel):
         description="refuse below this geometric view agreement: 37 of 40 true motions of the raycast set (seed 9001) "
         "scored over it, a pan registered onto a tomato's mask 0.24",
     )
+    min_hue_overlap: float = Field(
+        default=0.04,
+        ge=0,
+        le=1,
+        description="refuse a goal object whose hues share less than this with the initial one's (another object); "
+        "true pairs share 0.08-1.0 on bench/grounding.py's sets",
+    )
     min_inliers: int = Field(default=8, ge=3)
     min_inlier_ratio: float = Field(default=0.05, ge=0, le=1)
     scale_range: tuple[float, float] = Field(default=(0.9, 1.1), description="plausible similarity scale")
@@ -67,13 +74,15 @@ class SeenSymmetry:
     axis: np.ndarray | None = None
     rotations: np.ndarray | None = None
     shape_kind: str = "none"
+    print_unread: bool = False  # a print shows, but does not tell the motion from these twins (print_reading.py)
 
     @property
     def label(self) -> str:
+        unread = " (print not told apart)" if self.print_unread else ""
         if self.kind == "box" and self.rotations is not None:
-            return f"box: {len(self.rotations)} turns"
+            return f"box: {len(self.rotations)} turns{unread}"
         printed = " (printed)" if self.kind == "none" and self.shape_kind != "none" else ""
-        return self.kind + printed
+        return self.kind + printed + unread
 
     def moved(self, R: np.ndarray, t: np.ndarray) -> SeenSymmetry:
         """The same symmetry of the object carried by x' = R x + t (camera frame): seen from where it is now."""

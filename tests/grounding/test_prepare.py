@@ -97,3 +97,29 @@ def test_a_right_motion_whose_colours_an_editor_turned_still_agrees_and_colour_r
     right, twin = (view_consistency(m, view(chroma), view(chroma), K, 0.004) for m in (still, turned))
     assert right.geometry == pytest.approx(twin.geometry, abs=0.05)
     assert right.ranked > twin.ranked + 0.1
+
+
+def test_a_one_coloured_table_fixes_an_offset_not_a_gain():
+    """A table of one colour (sensor noise only) shows an editor's offset but cannot fix a gain: a least-squares gain
+    on that narrow range sent a grey plate's colour far off. The fit leans to a gain of 1 there."""
+    rng = np.random.default_rng(5)
+    rgb0 = np.clip(rng.normal((120.0, 110.0, 100.0), 2.0, (60, 80, 3)), 0, 255)
+    obj = np.zeros((60, 80), bool)
+    obj[20:40, 30:50] = True
+    rgb0[obj] = (60.0, 90.0, 200.0)
+    rgb1 = np.clip(rng.normal((128.0, 104.0, 104.0), 2.0, (60, 80, 3)), 0, 255)  # the editor's offset, new noise
+    rgb1[obj] = (68.0, 84.0, 204.0)
+    undone = match_colours(rgb1, rgb0, ~obj)
+    np.testing.assert_allclose(undone[obj].mean(axis=0), (60.0, 90.0, 200.0), atol=4.0)
+
+
+def test_hues_tell_another_object_from_an_editors_drift_and_grey_from_nothing():
+    from pipeline.grounding.prepare import hue_overlap
+
+    obj = np.zeros((60, 80), bool)
+    obj[20:40, 30:50] = True
+    red, blue, grey = (np.zeros((60, 80, 3)) + c for c in ((200.0, 40.0, 40.0), (40.0, 40.0, 200.0), (120.0,) * 3))
+    drifted = np.clip(red * (0.9, 1.1, 1.0) + 10.0, 0, 255)
+    assert hue_overlap(red, obj, drifted, obj) > 0.9
+    assert hue_overlap(red, obj, blue, obj) < 0.04
+    assert hue_overlap(red, obj, grey, obj) is None

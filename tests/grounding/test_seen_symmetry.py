@@ -194,3 +194,24 @@ def test_a_box_symmetry_moved_with_its_box_still_maps_it_onto_itself_in_the_base
     assert len(turns) == 4 and max(off_surface(H) for H in turns) < 0.002
     stale = symmetry.box_turns_in(T_base_camera)  # not carried with the box: turns about where it was
     assert max(off_surface(H) for H in stale) > 0.05
+
+
+def test_points_a_segmenters_mask_bled_onto_the_support_are_cut_off_before_the_shape_is_read():
+    """The object's points less than 5 mm above what the ring around its mask shows (the table, tilted in the
+    camera frame) are dropped; with nothing known in the ring, every point is kept."""
+    from pipeline.grounding.seen_symmetry import off_support
+
+    rng = np.random.default_rng(3)
+    up, at = TOWARD @ [0.0, 0.0, 1.0], np.array([0.0, 0.0, 0.8])
+    height = np.concatenate([np.zeros(300), np.full(300, 0.003), rng.uniform(0.006, 0.1, 600)])
+    local = np.column_stack([rng.uniform(-0.05, 0.05, 1200), rng.uniform(-0.05, 0.05, 1200), height])
+    points, normals = local @ TOWARD.T + at, rng.normal(size=(1200, 3))
+    mask = np.zeros((60, 80), bool)
+    mask[20:40, 30:50] = True
+    ring = np.column_stack([rng.uniform(-0.3, 0.3, 60 * 80), rng.uniform(-0.3, 0.3, 60 * 80), np.zeros(60 * 80)])
+    point_map = (ring @ TOWARD.T + at).reshape(60, 80, 3)
+    kept, kept_normals = off_support(points, normals, point_map, mask, up)
+    np.testing.assert_array_equal(kept, points[600:])
+    np.testing.assert_array_equal(kept_normals, normals[600:])
+    unknown = np.full_like(point_map, np.nan)
+    assert len(off_support(points, normals, unknown, mask, up)[0]) == 1200

@@ -1,0 +1,61 @@
+"""The views tell the grounded motion from its shape's twins (a print), or the turn is reported as not seen."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.types import CameraIntrinsics
+from pipeline.grounding.seen_turns import read_turns, shape_turns
+from pipeline.grounding.types import SeenSymmetry
+from pipeline.grounding.umeyama import Similarity
+from pipeline.grounding.verify import make_view
+
+K = CameraIntrinsics(80, 60, 80.0, 80.0, 39.5, 29.5)
+OBJ = np.zeros((60, 80), bool)
+OBJ[20:40, 30:50] = True
+DEPTH = np.where(OBJ, 0.8, 1.0).astype(np.float32)
+HALF = np.diag([-1.0, -1.0, 1.0])  # half a turn about the viewing axis
+
+
+def _view(chroma: np.ndarray):
+    cloud = K.unproject_depth_image(DEPTH)[OBJ]
+    return make_view(cloud, chroma[OBJ], DEPTH, OBJ, chroma, 0.004)
+
+
+def _printed() -> np.ndarray:
+    chroma = np.full((60, 80, 3), 1 / 3, np.float32)
+    chroma[:, :40] = (0.5, 0.25, 0.25)  # the left half of the tile red
+    return chroma
+
+
+def _tile() -> SeenSymmetry:
+    centre = K.unproject_depth_image(DEPTH)[OBJ].mean(axis=0)
+    return SeenSymmetry("box", centre, rotations=np.array([np.eye(3), HALF]), shape_kind="box")
+
+
+def test_the_print_turns_a_half_turned_twin_back_and_is_reported_read():
+    shape = _tile()
+    wrong = Similarity(1.0, HALF, shape.centre - HALF @ shape.centre)  # turned half way: the shape cannot tell
+    motion, seen, margin = read_turns(wrong, shape, True, _view(_printed()), _view(_printed()), K, 0.004)
+    np.testing.assert_allclose(motion.R, np.eye(3), atol=1e-9)
+    np.testing.assert_allclose(motion.apply(shape.centre[None])[0], shape.centre, atol=1e-9)
+    assert seen.kind == "none" and seen.shape_kind == "box" and margin > 0.1
+
+
+def test_a_print_the_goal_lost_leaves_the_shapes_turns_reported():
+    shape = _tile()
+    plain = np.full((60, 80, 3), 1 / 3, np.float32)  # the editor painted the tile over
+    still = Similarity(1.0, np.eye(3), np.zeros(3))
+    motion, seen, margin = read_turns(still, shape, True, _view(_printed()), _view(plain), K, 0.004)
+    np.testing.assert_allclose(motion.R, np.eye(3))
+    assert seen.kind == "box" and seen.print_unread and len(seen.rotations) == 2 and margin < 0.02
+    assert "print not told apart" in seen.label
+
+
+def test_a_can_ends_alike_is_spun_and_flipped():
+    can = SeenSymmetry("revolution_ends_alike", np.zeros(3), axis=np.array([0.0, 0.0, 1.0]))
+    turns = shape_turns(can)
+    assert len(turns) == 16 and np.allclose(turns[0], np.eye(3))
+    assert all(abs(np.linalg.det(g) - 1) < 1e-9 for g in turns)
+    flipped = [g for g in turns if g[2, 2] < -0.99]  # the axis end for end
+    assert len(flipped) == 8
