@@ -30,13 +30,13 @@ SENSOR_NOISE_REL = 0.0015  # a depth camera's per-pixel noise / depth: a model's
 MAX_SMOOTH_PX = 3.0  # ... over at most this many pixels (sigma); under MIN_SMOOTH_PX it is left as it is
 MIN_SMOOTH_PX = 0.7
 COLOUR_SAMPLES = 20000
-COLOUR_FIT_ROUNDS = 3
+COLOUR_FIT_ROUNDS = 3  # least squares, then refits without the pixels that changed (shadows, the object's old place)
 # a table of one or two colours does not fix a gain: the fit leans to a gain of 1 unless the background's levels
 # spread more than this (a least-squares gain fitted on a narrow range turned a grey plate blue)
 GAIN_PRIOR_LEVELS = 25.0
 HUE_BINS = 12
 HUE_MIN_SATURATION = 0.15  # an object's mean saturation below this: too grey for its hue to be compared
-HUE_MIN_VALUE = 40  # pixels darker than this (of 255) carry no hue  # least squares, then refits without the pixels that changed (shadows, the object's old place)
+HUE_MIN_VALUE = 40  # pixels darker than this (of 255) carry no hue
 
 
 def object_size(points: np.ndarray) -> float:
