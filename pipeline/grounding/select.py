@@ -1,6 +1,7 @@
 """Choosing the motion among hypotheses: a coarse view check ranks them all, the best few are refined by ICP
 and checked again at a fine tolerance. The winner best explains both images (view agreement) while covering
-the goal cloud (ICP fitness); the product of the two is its score."""
+the goal cloud (ICP fitness): it is ranked by the product of the two (colour breaking geometric ties) and judged
+on geometry times fitness alone."""
 
 from __future__ import annotations
 

@@ -1,11 +1,12 @@
 """Check a motion hypothesis against both images: render-and-compare with the object clouds.
 
 The initial object cloud, moved by the hypothesis, is projected into the goal view; each point that should be
-visible (its normal faces the camera) either lands on the goal object at the observed depth with the observed
-colour (agreement), lies in front of the observed surface or off the goal mask (contradiction), or lies
-behind it (occluded: no evidence). The same is done backwards, goal cloud into the initial view. The score is
-the mean agreement share of the two directions: it separates the right motion from symmetric or partial-view
-look-alikes that the feature consensus alone cannot tell apart.
+visible (its normal faces the camera) either lands on the goal object at the observed depth (agreement; with the
+observed colour too: colour agreement), lies in front of the observed surface or off the goal mask
+(contradiction), or lies behind it (occluded: no evidence). The same is done backwards, goal cloud into the initial
+view. The shares are the means of the two directions: they separate the right motion from partial-view
+look-alikes that the feature consensus alone cannot tell apart; geometry decides, colour breaks its ties
+(Agreement).
 
 The observed depth is matched within a tolerance no finer than the goal depth's own error (DEPTH_SIGMAS of it: a
 model's depth is good to several millimetres, not to a sensor's one).
