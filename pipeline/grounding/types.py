@@ -74,7 +74,7 @@ class SeenSymmetry:
     axis: np.ndarray | None = None
     rotations: np.ndarray | None = None
     shape_kind: str = "none"
-    print_unread: bool = False  # a print shows, but does not tell the motion from these twins (print_reading.py)
+    print_unread: bool = False  # a print shows, but does not tell the motion from these twins (seen_turns.py)
 
     @property
     def label(self) -> str:
