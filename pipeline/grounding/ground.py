@@ -19,7 +19,7 @@ from pipeline.grounding.matching import Matches, match_pixels, pairwise_consiste
 from pipeline.grounding.prepare import Prepared, prepare, refuse
 from pipeline.grounding.seen_symmetry import as_seen, off_support, shape_symmetry
 from pipeline.grounding.seen_turns import read_turns
-from pipeline.grounding.select import select_motion
+from pipeline.grounding.select import fine_tolerance, select_motion
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
 from pipeline.perception.features import FeatureExtractor
@@ -88,9 +88,8 @@ def ground(
     views = [(inp.rgb0, inp.mask0, pp.points0), (inp.rgb1, inp.mask1, pp.points1)]
     symmetry, turns_margin = as_seen(shape, views), None
     if shape.kind != "none" and not hinted:  # do the views tell the motion from its shape's twins?
-        fine = max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
         printed = symmetry.kind == "none"
-        sim, symmetry, turns_margin = read_turns(sim, shape, printed, view0, view1, K, fine)
+        sim, symmetry, turns_margin = read_turns(sim, shape, printed, view0, view1, K, fine_tolerance(size, cfg))
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())

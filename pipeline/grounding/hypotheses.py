@@ -24,6 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import ball_centre
+from pipeline.grounding.compare import half_turn_across
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View, depth_tolerance
@@ -244,15 +245,12 @@ def end_for_end(motion: Similarity, shape: SeenSymmetry, points0: np.ndarray, po
     a = shape.axis / np.linalg.norm(shape.axis)
     middle = shape.centre + a * _mid((points0 - shape.centre) @ a)
     a1 = motion.R @ a  # the axis where the goal has it
-    across = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-    flip = Rotation.from_rotvec(np.pi * across / np.linalg.norm(across))
-    spins = Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, END_FOR_END_SPIN_DEG))[:, None] * a)
+    spins = Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, END_FOR_END_SPIN_DEG))[:, None] * a).as_matrix()
     out = []
-    for H in (spins * flip).as_matrix():
-        R = motion.R @ H
-        twin = Similarity(motion.scale, R, motion.t + motion.scale * motion.R @ (middle - H @ middle))
+    for H in spins @ half_turn_across(a):
+        twin = motion.turned_first(H, middle)
         slide = _mid(points1 @ a1) - _mid(twin.apply(points0) @ a1)
-        out += [twin, Similarity(twin.scale, R, twin.t + slide * a1)]
+        out += [twin, Similarity(twin.scale, twin.R, twin.t + slide * a1)]
     return out
 
 

@@ -5,8 +5,8 @@ cross-section any of 8, a plain can any spin about its axis: the images hold not
 motion is given with its symmetry, and what consumes it (the benchmark, a planner, a verification) knows which turns
 were not measured. The shape comes from the initial points (a ball, a body of revolution and whether its ends look
 alike, a box and which of its sides are equal); a print seen on the object in either image (a texture, a decal, a
-label: fine detail of brightness or hue standing out of the image's noise) shows every turn, and the symmetry is
-then none.
+label: fine detail of brightness or hue standing out of the image's noise) can show every turn; whether the views
+then tell the motion from its twins is seen_turns.py's to judge.
 """
 
 from __future__ import annotations
@@ -50,15 +50,6 @@ PRINT_SHARE = 0.015
 PRINT_OUTLINE_PX = 3  # the object's edge against what is behind it is no print
 NORMAL_SMOOTH_PX = 2.0
 DARK = 30.0  # chromaticity is read where the channels sum to at least this (of 765)
-
-
-def seen_symmetry(
-    points0: np.ndarray, normals0: np.ndarray, views: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
-) -> SeenSymmetry:
-    """The symmetry of the object whose initial points (N, 3, camera frame) and normals are given, seen in `views`
-    (rgb uint8 (H, W, 3), object mask (H, W), point map (H, W, 3) with NaN where unknown): none when a print shows
-    on it in any view."""
-    return as_seen(shape_symmetry(points0, normals0), views)
 
 
 def as_seen(shape: SeenSymmetry, views: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> SeenSymmetry:

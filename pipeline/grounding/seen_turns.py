@@ -17,6 +17,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
+from pipeline.grounding.compare import half_turn_across
 from pipeline.grounding.hypotheses import AXIS_MAPS
 from pipeline.grounding.select import HINT_MARGIN
 from pipeline.grounding.types import SeenSymmetry
@@ -40,14 +41,7 @@ def shape_turns(shape: SeenSymmetry) -> np.ndarray:
     spins = Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, SPIN_STEP_DEG))[:, None] * a).as_matrix()
     if shape.kind != "revolution_ends_alike":
         return spins
-    across = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-    flip = Rotation.from_rotvec(np.pi * across / np.linalg.norm(across)).as_matrix()
-    return np.concatenate([spins, spins @ flip])
-
-
-def twin(motion: Similarity, g: np.ndarray, centre: np.ndarray) -> Similarity:
-    """The motion after the object is first turned by g about `centre` (initial camera frame)."""
-    return Similarity(motion.scale, motion.R @ g, motion.scale * motion.R @ (centre - g @ centre) + motion.t)
+    return np.concatenate([spins, spins @ half_turn_across(a)])
 
 
 def read_turns(
@@ -63,7 +57,7 @@ def read_turns(
     the margin by which it beats the next twin): the `shape` symmetry where another twin explains the views within
     TOLD_APART (flagged print_unread when a print shows), none where the views tell it apart."""
     turns = shape_turns(shape)
-    twins = [twin(motion, g, shape.centre) for g in turns]
+    twins = [motion.turned_first(g, shape.centre) for g in turns]
     ranked = np.array([view_consistency(t, view0, view1, K, tol_m).ranked for t in twins])
     best = int(np.argmax(ranked))
     if ranked[best] < ranked[0] + TOLD_APART:  # not clearly better than the refined motion itself: keep that

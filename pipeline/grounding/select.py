@@ -44,6 +44,11 @@ class Selected:
         return self.agreement.ranked * self.fitness
 
 
+def fine_tolerance(size: float, cfg: GroundingConfig) -> float:
+    """The depth tolerance [m] refined motions are checked at: half the inlier threshold for an object of `size`."""
+    return max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
+
+
 def select_motion(
     candidates: list[Similarity],
     view0: View,
@@ -63,7 +68,7 @@ def select_motion(
     view; a bottle stood up shows a side it lay on) that a twin keeping the seen faces in view does not."""
     coarse = max(cfg.inlier_min_m, 0.1 * size)
     ranked = sorted(candidates, key=lambda h: -view_consistency(h, view0, view1, K, coarse).ranked)[: cfg.refine_top]
-    fine = max(cfg.inlier_min_m, 0.5 * cfg.inlier_rel * size)
+    fine = fine_tolerance(size, cfg)
     target = IcpTarget(view1.cloud, view1.normals) if cfg.icp else None
 
     def scored(hypotheses: Sequence[Similarity], keep: bool = False) -> list[Selected]:

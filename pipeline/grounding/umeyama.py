@@ -22,6 +22,10 @@ class Similarity:
     def apply(self, points: np.ndarray) -> np.ndarray:
         return self.scale * np.asarray(points) @ self.R.T + self.t
 
+    def turned_first(self, g: np.ndarray, centre: np.ndarray) -> Similarity:
+        """This motion after the object is first turned by g (3, 3) about `centre`: its twin under that turn."""
+        return Similarity(self.scale, self.R @ g, self.scale * self.R @ (centre - g @ centre) + self.t)
+
     @property
     def matrix(self) -> np.ndarray:
         T = np.eye(4)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.seen_symmetry import seen_symmetry, shape_symmetry, shows_print
+from pipeline.grounding.seen_symmetry import as_seen, shape_symmetry, shows_print
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # bench/ is not an installed package
 
@@ -142,8 +142,8 @@ def test_a_print_on_the_object_in_either_view_makes_the_reported_symmetry_none()
     rng = np.random.default_rng(4)
     points, normals = _box((0.06, 0.06, 0.11), rng)
     plain, printed = _plane_view("uniform", rng), _plane_view("checker", rng)
-    assert seen_symmetry(points, normals, [plain, plain]).kind == "box"
-    reported = seen_symmetry(points, normals, [plain, printed])
+    assert as_seen(shape_symmetry(points, normals), [plain, plain]).kind == "box"
+    reported = as_seen(shape_symmetry(points, normals), [plain, printed])
     assert reported.kind == "none" and reported.shape_kind == "box" and reported.label == "none (printed)"
 
 
