@@ -87,9 +87,8 @@ def ground(
     sim, view_score, hinted = chosen.motion, chosen.score, chosen.hinted
     views = [(inp.rgb0, inp.mask0, pp.points0), (inp.rgb1, inp.mask1, pp.points1)]
     symmetry, turns_margin = as_seen(shape, views), None
-    if shape.kind != "none" and not hinted:  # do the views tell the motion from its shape's twins?
-        printed = symmetry.kind == "none"
-        sim, symmetry, turns_margin = read_turns(sim, shape, printed, view0, view1, K, fine_tolerance(size, cfg))
+    if shape.kind != "none" and symmetry.kind == "none" and not hinted:  # a print: does it tell the shape's twins?
+        sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine_tolerance(size, cfg))
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())

@@ -23,6 +23,7 @@ from pipeline.grounding.umeyama import Similarity
 
 DEPTH_SIGMAS = 2.5  # depth agreement is no finer than this many standard errors of the goal depth
 COLOUR_WEIGHT = 0.3  # colour's share of the ranking: a tie-break where geometry agrees within a few percent
+MIN_PATTERN_POINTS = 20  # fewer points on the object than this say nothing about its print
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,7 @@ class Agreement:
 
     geometry: float
     colour: float
+    pattern: float = 0.0  # the correlation of the colours the points bring with those they land on (-1..1)
 
     @property
     def ranked(self) -> float:
@@ -81,29 +83,62 @@ class Agreement:
         return (1.0 - COLOUR_WEIGHT) * self.geometry + COLOUR_WEIGHT * self.colour
 
 
-def _agreement(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: float, chroma_tol: float) -> Agreement:
+@dataclass(frozen=True)
+class _Landing:
+    """One direction's count: points that land on the object at its depth, of those that keep their colour, of the
+    points that give evidence; and, per point of the moved cloud, the colour it lands on (NaN where it does not
+    land on the object)."""
+
+    on_object: int
+    same_colour: int
+    counted: int
+    found: np.ndarray  # (N, 3)
+
+
+def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: float, chroma_tol: float) -> _Landing:
+    found = np.full(src.chroma.shape, np.nan)
     X = T.apply(src.cloud)
     n = src.normals @ T.R.T
     keep = (np.einsum("ij,ij->i", n, X) < -0.1 * np.linalg.norm(X, axis=1)) & (X[:, 2] > 1e-3)
-    X, colour = X[keep], src.chroma[keep]
+    index, X, colour = np.flatnonzero(keep), X[keep], src.chroma[keep]
     if len(X) == 0:
-        return Agreement(0.0, 0.0)
+        return _Landing(0, 0, 1, found)
     uv = K.project(X)
     u, v = np.round(uv[:, 0]).astype(int), np.round(uv[:, 1]).astype(int)
     inside = (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
     outside_count = int((~inside).sum())
-    u, v, z, colour = u[inside], v[inside], X[inside, 2], colour[inside]
+    index, u, v, z, colour = index[inside], u[inside], v[inside], X[inside, 2], colour[inside]
     d = dst.depth[v, u]
     known = np.isfinite(d)
-    u, v, z, d, colour = u[known], v[known], z[known], d[known], colour[known]
+    index, u, v, z, d, colour = index[known], u[known], v[known], z[known], d[known], colour[known]
     occluded = z > d + tol_m
     on_object = dst.mask[v, u] & (np.abs(z - d) <= tol_m)
-    same_colour = np.linalg.norm(dst.chroma_image[v, u] - colour, axis=1) < chroma_tol
+    there = dst.chroma_image[v, u]
+    same_colour = np.linalg.norm(there - colour, axis=1) < chroma_tol
+    found[index[on_object]] = there[on_object]
     evidence = int((~occluded).sum()) + outside_count
     # a hypothesis that hides most of the object behind the observed surface has little evidence either way:
     # count at least half of the camera-facing points so it cannot score by hiding
     counted = max(evidence, len(X) // 2, 1)
-    return Agreement(int(on_object.sum()) / counted, int((on_object & same_colour).sum()) / counted)
+    return _Landing(int(on_object.sum()), int((on_object & same_colour).sum()), counted, found)
+
+
+def pattern_correlation(brought: np.ndarray, found: np.ndarray) -> float:
+    """How well the colours points bring (N, 3) follow those they land on (N, 3, NaN where a point does not land on
+    the object), -1..1: the correlation of the two, each centred on its mean, less one standard error (Fisher's z),
+    so that a few points landing by chance on matching colours do not outrank many. A print turned the right way
+    correlates whatever gain, offset or blur the editor gave the goal; turned the wrong way it does not; 0 where
+    too few points land or either side has no contrast."""
+    landed = np.isfinite(found[:, 0])
+    if landed.sum() < MIN_PATTERN_POINTS:
+        return 0.0
+    a, b = brought[landed], found[landed]
+    a, b = a - a.mean(axis=0), b - b.mean(axis=0)
+    norm = float(np.sqrt((a * a).sum() * (b * b).sum()))
+    if norm == 0:
+        return 0.0
+    r = float(np.clip((a * b).sum() / norm, -0.999, 0.999))
+    return float(np.tanh(np.arctanh(r) - 1.0 / np.sqrt(len(a) - 3)))
 
 
 def depth_tolerance(tol_m: float, *views: View) -> float:
@@ -111,13 +146,36 @@ def depth_tolerance(tol_m: float, *views: View) -> float:
     return max(tol_m, DEPTH_SIGMAS * max(v.depth_sigma_m for v in views))
 
 
+def _landings(
+    hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float, chroma_tol: float
+) -> tuple[_Landing, _Landing]:
+    tol_m = depth_tolerance(tol_m, initial, goal)
+    inverse = Similarity(1.0 / hypothesis.scale, hypothesis.R.T, -(hypothesis.R.T @ hypothesis.t) / hypothesis.scale)
+    return _landing(initial, goal, hypothesis, K, tol_m, chroma_tol), _landing(
+        goal, initial, inverse, K, tol_m, chroma_tol
+    )
+
+
 def view_consistency(
     hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float, chroma_tol: float = 0.06
 ) -> Agreement:
     """Mean agreement shares (0..1) of initial -> goal and goal -> initial under the hypothesis; depths agree within
     `tol_m` or DEPTH_SIGMAS standard errors of the goal depth, whichever is larger."""
-    tol_m = depth_tolerance(tol_m, initial, goal)
-    inverse = Similarity(1.0 / hypothesis.scale, hypothesis.R.T, -(hypothesis.R.T @ hypothesis.t) / hypothesis.scale)
-    fwd = _agreement(initial, goal, hypothesis, K, tol_m, chroma_tol)
-    bwd = _agreement(goal, initial, inverse, K, tol_m, chroma_tol)
-    return Agreement(0.5 * (fwd.geometry + bwd.geometry), 0.5 * (fwd.colour + bwd.colour))
+    fwd, bwd = _landings(hypothesis, initial, goal, K, tol_m, chroma_tol)
+    return Agreement(
+        0.5 * (fwd.on_object / fwd.counted + bwd.on_object / bwd.counted),
+        0.5 * (fwd.same_colour / fwd.counted + bwd.same_colour / bwd.counted),
+        pattern_correlation(brought_colours(initial, goal), np.concatenate([fwd.found, bwd.found])),
+    )
+
+
+def brought_colours(initial: View, goal: View) -> np.ndarray:
+    """The colours of both views' points, in the order landed_colours gives what they land on."""
+    return np.concatenate([initial.chroma, goal.chroma])
+
+
+def landed_colours(hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float) -> np.ndarray:
+    """Per point of the initial cloud moved by the hypothesis, then of the goal cloud moved back: the colour it lands
+    on in the other view, NaN where it does not land on the object at its depth (view_consistency's test)."""
+    fwd, bwd = _landings(hypothesis, initial, goal, K, tol_m, 0.0)
+    return np.concatenate([fwd.found, bwd.found])
