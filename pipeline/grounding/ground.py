@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -17,6 +18,7 @@ from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.hypotheses import ball_hypotheses, end_for_end, face_hypotheses, sweep_hypotheses
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.prepare import Prepared, prepare, refuse
+from pipeline.grounding.ray_rest import rest_along_ray
 from pipeline.grounding.seen_symmetry import as_seen, off_support, shape_symmetry
 from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.select import fine_tolerance, select_motion
@@ -25,6 +27,7 @@ from pipeline.grounding.umeyama import Similarity, ransac_similarity
 from pipeline.perception.features import FeatureExtractor
 
 MAX_CONSISTENCY_MATCHES = 1500
+OUTLINE_PX = 4  # a mask's outline is this many pixels off at most (a segmenter's dilation, a ragged edge)
 ALIGNED_RESIDUAL_OF_THRESHOLD = 0.5  # an inlier RMS above this share of the inlier threshold is no alignment
 
 
@@ -129,6 +132,9 @@ def ground(
             residual_m=rms,
             **common,
         )
+    rested = 0.0
+    if not inp.depth1_measured and not hinted:  # a model's goal depth: its distance along the ray from the support
+        sim, rested = rest_along_ray(sim, pp.cloud0, _scene_around(pp.points0, inp.mask0), up)
     centre = pp.cloud0.mean(axis=0)
     t_rigid = sim.apply(centre[None])[0] - sim.R @ centre  # the centre lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))
@@ -146,6 +152,7 @@ def ground(
             "threshold_m": threshold,
             **({"hint_taken": True} if hinted else {}),
             **({"turns_margin": turns_margin} if turns_margin is not None else {}),
+            **({"rested_along_ray_m": rested} if rested else {}),
         },
         symmetry=symmetry,
         **common,
@@ -236,6 +243,12 @@ def _up_direction(background: np.ndarray, T_base_camera: np.ndarray | None, rng:
     (a, b, c, _), _ = pcd.segment_plane(0.01, 3, 200)
     n = np.array([a, b, c]) / np.linalg.norm([a, b, c])
     return -n if n @ pts.mean(axis=0) > 0 else n
+
+
+def _scene_around(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """The capture's points (camera frame) other than the object's, its outline's few pixels left out too."""
+    near = cv2.dilate(mask.astype(np.uint8), np.ones((2 * OUTLINE_PX + 1,) * 2, np.uint8)).astype(bool)
+    return points[~near & np.isfinite(points[..., 2])]
 
 
 def _second_extent(points: np.ndarray) -> float:

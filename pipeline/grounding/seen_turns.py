@@ -1,12 +1,12 @@
-"""Whether the views tell the grounded motion from the twins the object's seen shape allows.
+"""Whether a print tells the grounded motion from the twins the object's seen shape allows.
 
 A can spun about its axis, a box turned half way, a ball turned any way: the seen shape cannot tell these twins
-apart; a print can, and so can a part the first view did not show (a mug's handle behind it that the goal shows).
-An editor's goal often breaks the print (its colours drifted, a patch re-textured, the object blurred). So every
-twin is checked against both views; the best one is taken, and where another explains the views within TOLD_APART
-of it (the margin by which select_motion calls two motions alike) the turn is reported as not seen: the shape's
-symmetry goes with the motion, so that planning and verification leave that turn alone instead of trusting a coin
-toss.
+apart; a print can. Twins are compared by their print alone (Agreement.pattern: how the colours their points bring
+correlate with those they land on, which an editor's gain, offset and blur do not change): the shape is the same
+under each turn, and geometry only rewards a twin that keeps the seen side in view. Where no twin's print stands
+out from every other's, the shape's symmetry goes with the motion, flagged print_unread, so that planning and
+verification leave that turn alone instead of trusting a coin toss. Only an object whose print shows is read: a
+plain one keeps its shape's symmetry.
 """
 
 from __future__ import annotations

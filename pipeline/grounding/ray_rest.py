@@ -1,0 +1,67 @@
+"""The goal's distance along the camera ray, from what the object rests on.
+
+A model's goal depth is aligned on the background, but under the object it can still be centimetres off (a local
+warp the background does not show): the object then comes out where the goal image shows it, too near or too far
+along the ray through it, floating above its support or sunk into it. An object that rested on what was beneath
+it, and is slid or turned about the vertical, rests on what is beneath its goal the same way: its lowest seen point
+stands as far above the support as it did at the start (the seen points' lowest is not the object's bottom, but
+the same points stay lowest while the object stays upright). So the goal is moved along the ray through it, which
+keeps it where the image shows it, until that holds. The supports are read in the capture's measured depth, not
+in the model's. A tipped object (its lowest seen point changes), one that did not rest at the start (held, or on
+something unseen), one with nothing seen beneath its goal, or a correction too large to be depth error (put on
+something else): left as it is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from pipeline.grounding.umeyama import Similarity
+
+UPRIGHT_DEG = 10.0  # the motion tilts the vertical less than this: the same seen points stay lowest
+LOWEST_PERCENTILE = 1.0  # an object's lowest point, robust to a few stray points
+RESTED_M = 0.015  # at the start, its lowest seen point within this of the support beneath: it rested there
+MAX_SHIFT_M = 0.03  # a correction of the height above the support beyond this is not depth error
+MIN_RAY_SLOPE = 0.2  # a ray this close to horizontal hardly changes height along it
+BENEATH_M = 0.02  # scene points within this of the object's footprint (across the vertical) are beneath it
+MIN_SUPPORT_POINTS = 20
+
+
+def rest_along_ray(
+    motion: Similarity, cloud0: np.ndarray, scene0: np.ndarray, up: np.ndarray
+) -> tuple[Similarity, float]:
+    """(the motion moved along the camera ray through its goal so that the object stands above the support
+    beneath its goal as it stood above the one beneath it at the start, the shift along the ray [m]), or (the
+    motion, 0) where that cannot be told. `cloud0` (N, 3): the object's seen points at the start; `scene0` (M, 3):
+    the capture's other points (the object's own left out); `up` (3,): the table normal; all camera frame."""
+    up = up / np.linalg.norm(up)
+    if np.degrees(np.arccos(np.clip((motion.R @ up) @ up, -1.0, 1.0))) > UPRIGHT_DEG:
+        return motion, 0.0
+    start = _height_above_support(cloud0, scene0, up, RESTED_M)
+    if start is None or abs(start) > RESTED_M:
+        return motion, 0.0
+    goal = motion.apply(cloud0)
+    now = _height_above_support(goal, scene0, up, MAX_SHIFT_M)
+    if now is None or abs(now - start) > MAX_SHIFT_M:
+        return motion, 0.0
+    ray = goal.mean(axis=0) / np.linalg.norm(goal.mean(axis=0))
+    if abs(ray @ up) < MIN_RAY_SLOPE:
+        return motion, 0.0
+    shift = -(now - start) / float(ray @ up)
+    return Similarity(motion.scale, motion.R, motion.t + shift * ray), shift
+
+
+def _height_above_support(points: np.ndarray, scene: np.ndarray, up: np.ndarray, reach: float) -> float | None:
+    """How far the points' lowest stands above the scene beneath them (the median height of the scene points
+    under their footprint, within `reach` of that lowest either way: the highest of them would be the noisiest),
+    None when nothing is seen there."""
+    lowest = float(np.percentile(points @ up, LOWEST_PERCENTILE))
+    heights = scene @ up
+    near = scene[np.abs(heights - lowest) <= reach]
+    if len(near) == 0:
+        return None
+    across = np.linalg.svd(up[None], full_matrices=True)[2][1:].T  # two axes across `up`
+    gap, _ = cKDTree(points @ across).query(near @ across, distance_upper_bound=BENEATH_M)
+    beneath = np.isfinite(gap)
+    return lowest - float(np.median(near[beneath] @ up)) if beneath.sum() >= MIN_SUPPORT_POINTS else None
