@@ -39,7 +39,7 @@ def rest_along_ray(
     if np.degrees(np.arccos(np.clip((motion.R @ up) @ up, -1.0, 1.0))) > UPRIGHT_DEG:
         return motion, 0.0
     start = _height_above_support(cloud0, scene0, up, RESTED_M)
-    if start is None or abs(start) > RESTED_M:
+    if start is None:  # nothing beneath it within RESTED_M: it did not rest
         return motion, 0.0
     goal = motion.apply(cloud0)
     now = _height_above_support(goal, scene0, up, MAX_SHIFT_M)

@@ -1,0 +1,77 @@
+"""A model's goal depth off under the object: the goal is set along the camera ray onto its support."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from pipeline.grounding.ray_rest import rest_along_ray
+from pipeline.grounding.umeyama import Similarity
+
+UP = np.array([0.0, -1.0, -1.0]) / np.sqrt(2.0)  # the camera looks down at the table at 45 deg
+ACROSS = np.array([1.0, 0.0, 0.0])
+ALONG = np.cross(UP, ACROSS)
+TABLE = np.array([0.0, 0.1, 0.8])  # a point of the table, camera frame
+SIDE = 0.06
+
+
+def _cube(centre: np.ndarray) -> np.ndarray:
+    """The cube's surface points (its bottom too: what the camera sees is not the point here)."""
+    g = np.linspace(-SIDE / 2, SIDE / 2, 13)
+    a, b = np.meshgrid(g, g)
+    faces = []
+    for axis in range(3):
+        for side in (-SIDE / 2, SIDE / 2):
+            f = np.zeros((a.size, 3))
+            f[:, axis] = side
+            f[:, [k for k in range(3) if k != axis]] = np.column_stack([a.ravel(), b.ravel()])
+            faces.append(f)
+    local = np.vstack(faces)
+    return centre + local @ np.column_stack([ACROSS, ALONG, UP]).T
+
+
+def _table(hidden_under: np.ndarray) -> np.ndarray:
+    """The table's points the capture sees: all but those under the cube at its start."""
+    g = np.arange(-0.3, 0.3, 0.005)
+    a, b = np.meshgrid(g, g)
+    pts = TABLE + a.ravel()[:, None] * ACROSS + b.ravel()[:, None] * ALONG
+    offset = pts - hidden_under
+    under = (np.abs(offset @ ACROSS) < SIDE / 2) & (np.abs(offset @ ALONG) < SIDE / 2)
+    return pts[~under]
+
+
+def _start(lift: float = 0.0) -> np.ndarray:
+    return TABLE + (SIDE / 2 + lift) * UP
+
+
+def test_a_goal_too_far_along_the_ray_is_set_back_onto_the_table():
+    c0 = _start()
+    slide = 0.12 * ACROSS + 0.05 * ALONG
+    goal = c0 + slide
+    ray = goal / np.linalg.norm(goal)
+    off = Similarity(1.0, np.eye(3), slide + 0.02 * ray)  # the goal depth 2 cm long under the object
+    rested, shift = rest_along_ray(off, _cube(c0), _table(c0), UP)
+    assert abs(shift + 0.02) < 0.002, shift
+    assert np.linalg.norm(rested.apply(c0[None])[0] - goal) < 0.002
+
+
+def test_a_turn_about_the_vertical_is_rested_too():
+    c0 = _start()
+    turn = Rotation.from_rotvec(np.radians(40.0) * UP).as_matrix()
+    goal = c0 + 0.1 * ALONG
+    ray = goal / np.linalg.norm(goal)
+    off = Similarity(1.0, turn, goal - turn @ c0 - 0.015 * ray)  # 15 mm short
+    rested, shift = rest_along_ray(off, _cube(c0), _table(c0), UP)
+    assert np.linalg.norm(rested.apply(c0[None])[0] - goal) < 0.002, shift
+
+
+def test_a_tipped_object_or_one_held_above_the_table_is_left_as_it_is():
+    c0 = _start()
+    tip = Rotation.from_rotvec(np.radians(90.0) * ACROSS).as_matrix()
+    tipped = Similarity(1.0, tip, c0 + 0.1 * ALONG - tip @ c0 + 0.02 * UP)
+    kept, shift = rest_along_ray(tipped, _cube(c0), _table(c0), UP)
+    assert kept is tipped and shift == 0.0
+    held = _start(lift=0.03)
+    slid = Similarity(1.0, np.eye(3), 0.1 * ACROSS - 0.005 * UP)  # held 30 mm up at the start, 25 mm at the goal
+    kept, shift = rest_along_ray(slid, _cube(held), _table(held), UP)
+    assert kept is slid and shift == 0.0
