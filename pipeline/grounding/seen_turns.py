@@ -21,7 +21,7 @@ from pipeline.grounding.compare import half_turn_across
 from pipeline.grounding.hypotheses import AXIS_MAPS
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import View, brought_colours, landed_colours, pattern_correlation, view_consistency
+from pipeline.grounding.verify import View, brought_colours, pattern_correlation, view_consistency, view_evidence
 
 TOLD_APART = 0.1  # a twin's print correlates this much better than every other's ...
 HALF_AS_WELL = 0.5  # ... and every other's correlates under this share of it: the views tell it apart
@@ -64,14 +64,13 @@ def read_turns(
     twin. A body of revolution's best spin is then narrowed down to SPIN_FINE_DEG."""
     turns = shape_turns(shape)
     twins = [motion.turned_first(g, shape.centre) for g in turns]
-    agreements = [view_consistency(t, view0, view1, K, tol_m) for t in twins]
+    evidence = [view_evidence(t, view0, view1, K, tol_m) for t in twins]
     # a twin that puts the object elsewhere (the seen centre is off the true axis) is no twin at all
-    fits = [a.geometry >= MIN_TWIN_GEOMETRY * agreements[0].geometry for a in agreements]
-    twins = [t for t, ok in zip(twins, fits, strict=True) if ok]
-    turns = turns[np.array(fits)]
-    pattern = np.array([a.pattern for a, ok in zip(agreements, fits, strict=True) if ok])
+    kept = [k for k, (a, _) in enumerate(evidence) if a.geometry >= MIN_TWIN_GEOMETRY * evidence[0][0].geometry]
+    twins, turns = [twins[k] for k in kept], turns[kept]
+    pattern = np.array([evidence[k][0].pattern for k in kept])
+    landed = [evidence[k][1] for k in kept]
     brought = brought_colours(view0, view1)
-    landed = [landed_colours(t, view0, view1, K, tol_m) for t in twins]
 
     def beats(i: int, j: int) -> float:
         """How far twin j's print falls short of twin i's in following the views, on the points both land on the

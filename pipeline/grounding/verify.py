@@ -146,14 +146,23 @@ def depth_tolerance(tol_m: float, *views: View) -> float:
     return max(tol_m, DEPTH_SIGMAS * max(v.depth_sigma_m for v in views))
 
 
-def _landings(
-    hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float, chroma_tol: float
-) -> tuple[_Landing, _Landing]:
+def view_evidence(
+    hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float, chroma_tol: float = 0.06
+) -> tuple[Agreement, np.ndarray]:
+    """(view_consistency's agreement, the colour each point lands on: per point of the initial cloud moved by the
+    hypothesis, then of the goal cloud moved back, NaN where it does not land on the object at its depth; in the
+    order of brought_colours)."""
     tol_m = depth_tolerance(tol_m, initial, goal)
     inverse = Similarity(1.0 / hypothesis.scale, hypothesis.R.T, -(hypothesis.R.T @ hypothesis.t) / hypothesis.scale)
-    return _landing(initial, goal, hypothesis, K, tol_m, chroma_tol), _landing(
-        goal, initial, inverse, K, tol_m, chroma_tol
+    fwd = _landing(initial, goal, hypothesis, K, tol_m, chroma_tol)
+    bwd = _landing(goal, initial, inverse, K, tol_m, chroma_tol)
+    found = np.concatenate([fwd.found, bwd.found])
+    agreement = Agreement(
+        0.5 * (fwd.on_object / fwd.counted + bwd.on_object / bwd.counted),
+        0.5 * (fwd.same_colour / fwd.counted + bwd.same_colour / bwd.counted),
+        pattern_correlation(brought_colours(initial, goal), found),
     )
+    return agreement, found
 
 
 def view_consistency(
@@ -161,21 +170,9 @@ def view_consistency(
 ) -> Agreement:
     """Mean agreement shares (0..1) of initial -> goal and goal -> initial under the hypothesis; depths agree within
     `tol_m` or DEPTH_SIGMAS standard errors of the goal depth, whichever is larger."""
-    fwd, bwd = _landings(hypothesis, initial, goal, K, tol_m, chroma_tol)
-    return Agreement(
-        0.5 * (fwd.on_object / fwd.counted + bwd.on_object / bwd.counted),
-        0.5 * (fwd.same_colour / fwd.counted + bwd.same_colour / bwd.counted),
-        pattern_correlation(brought_colours(initial, goal), np.concatenate([fwd.found, bwd.found])),
-    )
+    return view_evidence(hypothesis, initial, goal, K, tol_m, chroma_tol)[0]
 
 
 def brought_colours(initial: View, goal: View) -> np.ndarray:
-    """The colours of both views' points, in the order landed_colours gives what they land on."""
+    """The colours of both views' points, in the order view_evidence gives what they land on."""
     return np.concatenate([initial.chroma, goal.chroma])
-
-
-def landed_colours(hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float) -> np.ndarray:
-    """Per point of the initial cloud moved by the hypothesis, then of the goal cloud moved back: the colour it lands
-    on in the other view, NaN where it does not land on the object at its depth (view_consistency's test)."""
-    fwd, bwd = _landings(hypothesis, initial, goal, K, tol_m, 0.0)
-    return np.concatenate([fwd.found, bwd.found])
