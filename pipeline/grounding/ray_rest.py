@@ -3,13 +3,12 @@
 A model's goal depth is aligned on the background, but under the object it can still be centimetres off (a local
 warp the background does not show): the object then comes out where the goal image shows it, too near or too far
 along the ray through it, floating above its support or sunk into it. An object that rested on what was beneath
-it, and is slid or turned about the vertical, rests on what is beneath its goal the same way: its lowest seen point
-stands as far above the support as it did at the start (the seen points' lowest is not the object's bottom, but
-the same points stay lowest while the object stays upright). So the goal is moved along the ray through it, which
-keeps it where the image shows it, until that holds. The supports are read in the capture's measured depth, not
-in the model's. A tipped object (its lowest seen point changes), one that did not rest at the start (held, or on
-something unseen), one with nothing seen beneath its goal, or a correction too large to be depth error (put on
-something else): left as it is.
+it, and is slid or turned about the vertical, stands above what is beneath its goal as it stood at the start: each
+of its points keeps its height above the support. So the goal is moved along the ray through it, which keeps it
+where the image shows it, until its seen points' middle stands as high above the support beneath the goal as it
+stood above the one beneath the start. The supports are read in the capture's measured depth, not in the model's.
+A tipped object, one that did not rest at the start (held, or on something unseen), one with nothing seen beneath
+its goal, or a correction too large to be depth error (put on something else): left as it is.
 """
 
 from __future__ import annotations
@@ -19,9 +18,9 @@ from scipy.spatial import cKDTree
 
 from pipeline.grounding.umeyama import Similarity
 
-UPRIGHT_DEG = 10.0  # the motion tilts the vertical less than this: the same seen points stay lowest
+UPRIGHT_DEG = 10.0  # the motion tilts the vertical less than this: its points keep their heights
 LOWEST_PERCENTILE = 1.0  # an object's lowest point, robust to a few stray points
-RESTED_M = 0.015  # at the start, its lowest seen point within this of the support beneath: it rested there
+RESTED_M = 0.015  # at the start, its lowest seen point within this of a support beneath: it rested there
 MAX_SHIFT_M = 0.03  # a correction of the height above the support beyond this is not depth error
 MIN_RAY_SLOPE = 0.2  # a ray this close to horizontal hardly changes height along it
 BENEATH_M = 0.02  # scene points within this of the object's footprint (across the vertical) are beneath it
@@ -53,15 +52,19 @@ def rest_along_ray(
 
 
 def _height_above_support(points: np.ndarray, scene: np.ndarray, up: np.ndarray, reach: float) -> float | None:
-    """How far the points' lowest stands above the scene beneath them (the median height of the scene points
-    under their footprint, within `reach` of that lowest either way: the highest of them would be the noisiest),
-    None when nothing is seen there."""
+    """How far the points' middle stands above the scene beneath them (the median height of the scene points under
+    their footprint within `reach` of their lowest either way: the highest of them would be the noisiest), None
+    when nothing is seen there. The middle, not the lowest: a motion a few degrees off tilts a wide object's lowest
+    point by centimetres, its middle hardly."""
     lowest = float(np.percentile(points @ up, LOWEST_PERCENTILE))
-    heights = scene @ up
-    near = scene[np.abs(heights - lowest) <= reach]
-    if len(near) == 0:
-        return None
     across = np.linalg.svd(up[None], full_matrices=True)[2][1:].T  # two axes across `up`
-    gap, _ = cKDTree(points @ across).query(near @ across, distance_upper_bound=BENEATH_M)
+    flat, scene_flat = points @ across, scene @ across
+    lo, hi = flat.min(axis=0) - BENEATH_M, flat.max(axis=0) + BENEATH_M
+    near = (np.abs(scene @ up - lowest) <= reach) & np.all((scene_flat >= lo) & (scene_flat <= hi), axis=1)
+    if near.sum() < MIN_SUPPORT_POINTS:
+        return None
+    gap, _ = cKDTree(flat).query(scene_flat[near], distance_upper_bound=BENEATH_M)
     beneath = np.isfinite(gap)
-    return lowest - float(np.median(near[beneath] @ up)) if beneath.sum() >= MIN_SUPPORT_POINTS else None
+    heights = scene[near][beneath] @ up
+    middle = float(np.mean(points @ up))
+    return middle - float(np.median(heights)) if len(heights) >= MIN_SUPPORT_POINTS else None
