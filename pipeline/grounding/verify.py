@@ -6,7 +6,8 @@ observed colour too: colour agreement), lies in front of the observed surface or
 (contradiction), or lies behind it (occluded: no evidence). The same is done backwards, goal cloud into the initial
 view. The shares are the means of the two directions: they separate the right motion from partial-view
 look-alikes that the feature consensus alone cannot tell apart; geometry decides, colour breaks its ties
-(Agreement).
+(Agreement). How the colours the points bring correlate with those they land on (Agreement.pattern) is what tells a
+printed object from its shape's twins (seen_turns.py): an editor's gain, offset and blur leave it unchanged.
 
 The observed depth is matched within a tolerance no finer than the goal depth's own error (DEPTH_SIGMAS of it: a
 model's depth is good to several millimetres, not to a sensor's one).
