@@ -21,7 +21,8 @@ from pipeline.grounding.umeyama import Similarity
 UPRIGHT_DEG = 10.0  # the motion tilts the vertical less than this: its points keep their heights
 LOWEST_PERCENTILE = 1.0  # an object's lowest point, robust to a few stray points
 RESTED_M = 0.015  # at the start, its lowest seen point within this of a support beneath: it rested there
-MAX_SHIFT_M = 0.03  # a correction of the height above the support beyond this is not depth error
+MAX_SHIFT_M = 0.03  # a correction of the height above the support beyond this is not depth error ...
+MIN_GAP_M = 0.002  # ... and under this it is within what the heights are read to (a sensor's noise on the support)
 MIN_RAY_SLOPE = 0.2  # a ray this close to horizontal hardly changes height along it
 BENEATH_M = 0.02  # scene points within this of the object's footprint (across the vertical) are beneath it
 MIN_SUPPORT_POINTS = 20
@@ -42,7 +43,7 @@ def rest_along_ray(
         return motion, 0.0
     goal = motion.apply(cloud0)
     now = _height_above_support(goal, scene0, up, MAX_SHIFT_M)
-    if now is None or abs(now - start) > MAX_SHIFT_M:
+    if now is None or not MIN_GAP_M <= abs(now - start) <= MAX_SHIFT_M:
         return motion, 0.0
     ray = goal.mean(axis=0) / np.linalg.norm(goal.mean(axis=0))
     if abs(ray @ up) < MIN_RAY_SLOPE:

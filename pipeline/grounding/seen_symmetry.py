@@ -32,6 +32,7 @@ SLICE_M = 0.005
 BALL_NORMAL_DEG = 10.0  # a ball's normals point away from its centre: this close, BALL_NORMAL_SHARE of them
 BALL_NORMAL_SHARE = 0.9  # (a bowl's inside lies on a sphere too, its normals pointing in)
 BOWL_INWARD_SHARE = 0.6  # points on a sphere, this many facing its centre: a bowl's inside, tried as a revolution
+OPEN_INWARD_SHARE = 0.1  # a body of revolution with this many points facing its axis is seen into: open at one end
 BOX_FACE_FILL = 0.88  # each seen face of MIN_FACE_POINTS fills its rectangle this well (a disc fills pi/4 of it)
 MIN_FACE_POINTS = 100
 SUPPORT_RING_PX = (4, 12)  # the ring around the mask that shows what the object stands on (inner, outer)
@@ -89,7 +90,8 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:
         axis = revolution_axis(P)  # a bowl's inside: on a sphere, facing in, and it may go round an axis
         revolution = None if axis is None else Symmetry(axis.point, axis.direction, axis.ends_alike)
     if revolution is not None and _whole_revolution(P, normals, revolution.centre, revolution.axis):
-        kind = "revolution_ends_alike" if revolution.ends_alike else "revolution"
+        open_end = _facing_axis_share(P, normals, revolution.centre, revolution.axis) >= OPEN_INWARD_SHARE
+        kind = "revolution_ends_alike" if revolution.ends_alike and not open_end else "revolution"
         return SeenSymmetry(kind, revolution.centre, axis=revolution.axis, shape_kind=kind)
     box = box_turns(P, normals)
     if box is not None:  # at least its three half turns about the face axes
@@ -103,6 +105,16 @@ def _radial_cosines(points: np.ndarray, normals: np.ndarray, centre: np.ndarray)
     radial = points - centre
     radial /= np.maximum(np.linalg.norm(radial, axis=1, keepdims=True), 1e-9)
     return np.einsum("ij,ij->i", radial, normals)
+
+
+def _facing_axis_share(points: np.ndarray, normals: np.ndarray, point: np.ndarray, axis: np.ndarray) -> float:
+    """The share of points whose normal faces the axis (a cup's or a mug's inside): a body seen into is open at one
+    end, so it does not look the same turned end for end, whatever its outside's one radius."""
+    a = axis / np.linalg.norm(axis)
+    off = points - point
+    radial = off - np.outer(off @ a, a)
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True) + 1e-12
+    return float(np.mean(np.einsum("ij,ij->i", normals, radial) < -0.5))
 
 
 def _whole_revolution(points: np.ndarray, normals: np.ndarray, point: np.ndarray, axis: np.ndarray) -> bool:

@@ -85,6 +85,17 @@ def test_a_body_of_revolution_is_reported_by_its_axis_and_a_handle_breaks_it():
     assert shape_symmetry(*_cylinder(0.05, 0.04, rng, handle=True)).kind == "none"
 
 
+def test_a_can_looks_alike_end_for_end_and_a_cup_seen_into_does_not():
+    rng = np.random.default_rng(2)
+    a, z = rng.uniform(0, 2 * np.pi, 6000), rng.uniform(-0.05, 0.05, 6000)
+    ring = np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)])
+    outside = ring * 0.03 + np.column_stack([np.zeros((6000, 2)), z])
+    assert shape_symmetry(*_seen(outside, ring, np.array([0.0, 0.0, 0.8]))).kind == "revolution_ends_alike"
+    inside = ring * 0.027 + np.column_stack([np.zeros((6000, 2)), z])  # its inner wall, facing the axis
+    cup = shape_symmetry(*_seen(np.vstack([outside, inside]), np.vstack([ring, -ring]), np.array([0.0, 0.0, 0.8])))
+    assert cup.kind == "revolution"
+
+
 def test_a_flat_disc_with_a_rim_is_no_box():
     rng = np.random.default_rng(5)
     r = 0.09 * np.sqrt(rng.random(12000))
