@@ -14,8 +14,8 @@ its goal, or a correction too large to be depth error (put on something else): l
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
+from pipeline.grounding.settle import beneath
 from pipeline.grounding.umeyama import Similarity
 
 UPRIGHT_DEG = 10.0  # the motion tilts the vertical less than this: its points keep their heights
@@ -58,14 +58,7 @@ def _height_above_support(points: np.ndarray, scene: np.ndarray, up: np.ndarray,
     when nothing is seen there. The middle, not the lowest: a motion a few degrees off tilts a wide object's lowest
     point by centimetres, its middle hardly."""
     lowest = float(np.percentile(points @ up, LOWEST_PERCENTILE))
-    across = np.linalg.svd(up[None], full_matrices=True)[2][1:].T  # two axes across `up`
-    flat, scene_flat = points @ across, scene @ across
-    lo, hi = flat.min(axis=0) - BENEATH_M, flat.max(axis=0) + BENEATH_M
-    near = (np.abs(scene @ up - lowest) <= reach) & np.all((scene_flat >= lo) & (scene_flat <= hi), axis=1)
-    if near.sum() < MIN_SUPPORT_POINTS:
-        return None
-    gap, _ = cKDTree(flat).query(scene_flat[near], distance_upper_bound=BENEATH_M)
-    beneath = np.isfinite(gap)
-    heights = scene[near][beneath] @ up
+    level = scene[np.abs(scene @ up - lowest) <= reach]
+    heights = level[beneath(points, level, up, BENEATH_M)] @ up
     middle = float(np.mean(points @ up))
     return middle - float(np.median(heights)) if len(heights) >= MIN_SUPPORT_POINTS else None

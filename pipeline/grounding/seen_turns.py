@@ -17,7 +17,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
-from pipeline.grounding.compare import half_turn_across
+from pipeline.grounding.compare import half_turn_across, rotation_deg
 from pipeline.grounding.hypotheses import AXIS_MAPS
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
@@ -87,7 +87,7 @@ def read_turns(
         best = 0
     # twins within a spin step of the best are its neighbours on a continuous spin, not rivals: the finer spin
     # search below settles between them
-    rivals = [j for j in range(len(twins)) if _angle_deg(turns[best].T @ turns[j]) > SPIN_STEP_DEG + 1.0]
+    rivals = [j for j in range(len(twins)) if rotation_deg(turns[best].T @ turns[j]) > SPIN_STEP_DEG + 1.0]
     margin = min((beats(best, j) for j in rivals), default=float("inf"))
     if margin < TOLD_APART:
         return twins[best], replace(shape, print_unread=True), margin
@@ -95,10 +95,6 @@ def read_turns(
     if shape.axis is not None:
         chosen = _finer_spin(chosen, shape, float(pattern[best]), view0, view1, K, tol_m)
     return chosen, SeenSymmetry("none", shape.centre, shape_kind=shape.kind), margin
-
-
-def _angle_deg(R: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
 
 
 def _finer_spin(

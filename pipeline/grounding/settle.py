@@ -64,9 +64,18 @@ def settled(
 def _support(goal: np.ndarray, bottom: float, scene: np.ndarray, up: np.ndarray) -> float | None:
     """Height of the highest scene point beneath the goal's footprint, up to SUNK_M above its bottom; None if none."""
     below = scene[scene @ up < bottom + SUNK_M]
-    if len(below) == 0:
-        return None
-    in_plane = np.linalg.svd(up[None], full_matrices=True)[2][1:].T  # two axes across `up`
-    near, _ = cKDTree(goal @ in_plane).query(below @ in_plane, distance_upper_bound=BENEATH_M)
-    beneath = np.isfinite(near)
-    return float(np.max(below[beneath] @ up)) if beneath.any() else None
+    under = below[beneath(goal, below, up, BENEATH_M)]
+    return float(np.max(under @ up)) if len(under) else None
+
+
+def beneath(points: np.ndarray, scene: np.ndarray, up: np.ndarray, within_m: float) -> np.ndarray:
+    """(M,) whether each scene point lies within `within_m` of the points' footprint, across `up` (unit)."""
+    across = np.linalg.svd(up[None], full_matrices=True)[2][1:].T  # two axes across `up`
+    flat, scene_flat = points @ across, scene @ across
+    lo, hi = flat.min(axis=0) - within_m, flat.max(axis=0) + within_m
+    boxed = np.flatnonzero(np.all((scene_flat >= lo) & (scene_flat <= hi), axis=1))  # the tree only for these
+    out = np.zeros(len(scene), dtype=bool)
+    if len(boxed):
+        gap, _ = cKDTree(flat).query(scene_flat[boxed], distance_upper_bound=within_m)
+        out[boxed[np.isfinite(gap)]] = True
+    return out
