@@ -2,9 +2,10 @@
 
 The initial object cloud, moved by the hypothesis, is projected into the goal view; each point that should be
 visible (its normal faces the camera) either lands on the goal object at the observed depth (agreement; with the
-observed colour too: colour agreement), lies in front of the observed surface or off the goal mask
-(contradiction), or lies behind it (occluded: no evidence). The same is done backwards, goal cloud into the initial
-view. The shares are the means of the two directions: they separate the right motion from partial-view
+observed colour too: colour agreement), lies in front of the observed surface or off the goal mask (contradiction),
+or lies behind it (occluded: no evidence); a point the motion turns away from the camera is unseen, yet well in
+front of the observed surface it contradicts the view too (free space). The same is done backwards, goal cloud into
+the initial view. The shares are the means of the two directions: they separate the right motion from partial-view
 look-alikes that the feature consensus alone cannot tell apart; geometry decides, colour breaks its ties
 (Agreement). How the colours the points bring correlate with those they land on (Agreement.pattern) is what tells a
 printed object from its shape's twins (seen_turns.py): an editor's gain, offset and blur leave it unchanged.
@@ -25,6 +26,11 @@ from pipeline.grounding.umeyama import Similarity
 DEPTH_SIGMAS = 2.5  # depth agreement is no finer than this many standard errors of the goal depth
 COLOUR_WEIGHT = 0.3  # colour's share of the ranking: a tie-break where geometry agrees within a few percent
 MIN_PATTERN_POINTS = 20  # fewer points on the object than this say nothing about its print
+FACING_COS = 0.1  # a point this far from grazing (cosine of its normal to its ray) faces toward or away from the camera
+# a point turned away from the camera contradicts the view only this many depth tolerances in front of what it sees:
+# a right motion's far side lies behind the seen surface by the object's thickness, except at the outline, where a
+# model's depth bleeds toward the background
+CARVE_TOLS = 3.0
 
 
 @dataclass(frozen=True)
@@ -99,11 +105,16 @@ class _Landing:
 def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: float, chroma_tol: float) -> _Landing:
     found = np.full(src.chroma.shape, np.nan)
     X = T.apply(src.cloud)
-    n = src.normals @ T.R.T
-    keep = (np.einsum("ij,ij->i", n, X) < -0.1 * np.linalg.norm(X, axis=1)) & (X[:, 2] > 1e-3)
+    facing = np.einsum("ij,ij->i", src.normals @ T.R.T, X) / np.maximum(np.linalg.norm(X, axis=1), 1e-9)
+    in_front = X[:, 2] > 1e-3
+    # a surface point turned away from the camera cannot be seen, but it cannot float in front of what the camera
+    # sees either: a ray through it meets the object there or nearer (free space carved). Without this a motion
+    # scores by turning what it cannot explain away (a tray upside down, its floor facing off and floating)
+    carved = _in_front_of_observed(dst, K, X[in_front & (facing > FACING_COS)], CARVE_TOLS * tol_m)
+    keep = in_front & (facing < -FACING_COS)
     index, X, colour = np.flatnonzero(keep), X[keep], src.chroma[keep]
     if len(X) == 0:
-        return _Landing(0, 0, 1, found)
+        return _Landing(0, 0, max(carved, 1), found)
     uv = K.project(X)
     u, v = np.round(uv[:, 0]).astype(int), np.round(uv[:, 1]).astype(int)
     inside = (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
@@ -117,11 +128,21 @@ def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: fl
     there = dst.chroma_image[v, u]
     same_colour = np.linalg.norm(there - colour, axis=1) < chroma_tol
     found[index[on_object]] = there[on_object]
-    evidence = int((~occluded).sum()) + outside_count
+    evidence = int((~occluded).sum()) + outside_count + carved
     # a hypothesis that hides most of the object behind the observed surface has little evidence either way:
     # count at least half of the camera-facing points so it cannot score by hiding
     counted = max(evidence, len(X) // 2, 1)
     return _Landing(int(on_object.sum()), int((on_object & same_colour).sum()), counted, found)
+
+
+def _in_front_of_observed(dst: View, K: CameraIntrinsics, X: np.ndarray, tol_m: float) -> int:
+    """How many points X (N, 3) lie more than tol_m in front of the surface dst's depth sees along their rays."""
+    if len(X) == 0:
+        return 0
+    uv = np.round(K.project(X)).astype(int)
+    inside = (uv[:, 0] >= 0) & (uv[:, 0] < K.width) & (uv[:, 1] >= 0) & (uv[:, 1] < K.height)
+    d = dst.depth[uv[inside, 1], uv[inside, 0]]
+    return int(np.sum(X[inside, 2] < d - tol_m))  # NaN depth compares False: no evidence
 
 
 def pattern_correlation(brought: np.ndarray, found: np.ndarray) -> float:

@@ -1,0 +1,46 @@
+"""The view check: a motion cannot score by turning what it cannot explain away from the camera."""
+
+from __future__ import annotations
+
+import numpy as np
+import open3d as o3d
+from scipy.spatial.transform import Rotation
+
+from bench.pairgen.shapes import lathe
+from drivers.types import CameraIntrinsics
+from pipeline.grounding.umeyama import Similarity
+from pipeline.grounding.verify import chromaticity, make_view, view_consistency
+
+K = CameraIntrinsics(160, 120, 160.0, 160.0, 79.5, 59.5)
+
+
+def _tray_view(up: np.ndarray, base: np.ndarray):
+    """A uniform open tray (10 cm across, 3 cm deep) standing at `base` on its axis `up` (camera frame), seen
+    into from above at a slant: ray-cast depth, mask and cloud."""
+    tray = lathe([(0.0, 0.0), (0.05, 0.0), (0.05, 0.03), (0.046, 0.03), (0.046, 0.004), (0.0, 0.004)])
+    R = Rotation.align_vectors([up], [[0.0, 0.0, 1.0]])[0].as_matrix()
+    vertices = (tray.triangles @ R.T + base).reshape(-1, 3).astype(np.float32)
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(
+        o3d.core.Tensor(vertices), o3d.core.Tensor(np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3))
+    )
+    u, v = np.meshgrid(np.arange(K.width, dtype=np.float32), np.arange(K.height, dtype=np.float32))
+    rays = np.stack([0 * u, 0 * u, 0 * u, (u - K.cx) / K.fx, (v - K.cy) / K.fy, 1 + 0 * u], axis=-1)
+    depth = scene.cast_rays(o3d.core.Tensor(rays.reshape(-1, 6)))["t_hit"].numpy().reshape(K.height, K.width)
+    mask = np.isfinite(depth)
+    chroma = chromaticity(np.full((K.height, K.width, 3), 128, np.uint8))
+    return make_view(K.unproject_depth_image(depth)[mask], chroma[mask], depth, mask, chroma, 0.003)
+
+
+def test_a_tray_turned_upside_down_does_not_explain_a_view_into_it():
+    up, base = np.array([0.0, -0.6, -0.8]), np.array([0.0, 0.04, 0.5])
+    view = _tray_view(up, base)
+    middle = base + 0.015 * up
+    ray = middle / np.linalg.norm(middle)
+    across = ray - (ray @ up) * up  # the half turn about this keeps the outer wall the camera sees where it was
+    H = Rotation.from_rotvec(np.pi * across / np.linalg.norm(across)).as_matrix()
+    upside_down = Similarity(1.0, H, middle - H @ middle)
+    still = Similarity(1.0, np.eye(3), np.zeros(3))
+    assert view_consistency(still, view, view, K, 0.003).geometry > 0.99
+    # its floor, turned to face away, would float in front of the floor the camera sees: 0.96 without free space
+    assert view_consistency(upside_down, view, view, K, 0.003).geometry < 0.5
