@@ -45,6 +45,10 @@ class IcpTarget:
         """The larger share of either cloud within max_corr_m of the other: the moved source's (ICP's fitness) or the
         goal's. A goal that shows only part of the object (put into a bowl, its sides hidden by the wall) is all
         explained by the right motion, while only part of the source can find a counterpart in it."""
-        to_goal, _ = self.tree.query(moved)
-        to_source, _ = cKDTree(moved).query(self.points)
+        # only whether a counterpart lies within max_corr_m counts: the search stops there (inf beyond), and a tree
+        # used once is built unbalanced (faster to build, as fast to search a few thousand points)
+        to_goal, _ = self.tree.query(moved, distance_upper_bound=max_corr_m)
+        to_source, _ = cKDTree(moved, balanced_tree=False, compact_nodes=False).query(
+            self.points, distance_upper_bound=max_corr_m
+        )
         return max(float(np.mean(to_goal <= max_corr_m)), float(np.mean(to_source <= max_corr_m)))

@@ -20,6 +20,7 @@ MAX_ICP_TURN_DEG = 15.0  # ICP may polish a hypothesis, not replace it
 MAX_ICP_SHIFT_REL = 0.25
 MIN_FITNESS = 0.3  # the share of either cloud with a counterpart in the other: below it the clouds do not meet
 DRIFT_MARGIN = 0.1  # ICP that loses more fitness than this has drifted off
+COARSE_POINTS = 400  # per view for the coarse cut: its shares to about 0.02
 HINT_MARGIN = 0.02  # view agreement within this of the best: the views do not tell the motions apart
 
 
@@ -67,7 +68,8 @@ def select_motion(
     ICP fitness does not rank hints: a turn that shows other faces loses fitness (the faces first seen turn out of
     view; a bottle stood up shows a side it lay on) that a twin keeping the seen faces in view does not."""
     coarse = max(cfg.inlier_min_m, 0.1 * size)
-    ranked = sorted(candidates, key=lambda h: -view_consistency(h, view0, view1, K, coarse).ranked)[: cfg.refine_top]
+    thin0, thin1 = view0.thinned(COARSE_POINTS), view1.thinned(COARSE_POINTS)
+    ranked = sorted(candidates, key=lambda h: -view_consistency(h, thin0, thin1, K, coarse).ranked)[: cfg.refine_top]
     fine = fine_tolerance(size, cfg)
     target = IcpTarget(view1.cloud, view1.normals) if cfg.icp else None
 

@@ -16,7 +16,7 @@ model's depth is good to several millimetres, not to a sensor's one).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -44,6 +44,14 @@ class View:
     mask: np.ndarray  # (H, W) bool
     chroma_image: np.ndarray  # (H, W, 3)
     depth_sigma_m: float = 0.0  # standard error of `depth` (a model's goal depth; 0: a sensor's, negligible)
+
+    def thinned(self, max_points: int) -> View:
+        """The view with every k-th point at most `max_points` (the images whole): a coarse check needs the shape,
+        not every point."""
+        step = -(-len(self.cloud) // max_points)
+        if step <= 1:
+            return self
+        return replace(self, cloud=self.cloud[::step], normals=self.normals[::step], chroma=self.chroma[::step])
 
 
 def chromaticity(rgb: np.ndarray) -> np.ndarray:
