@@ -73,14 +73,16 @@ def read_turns(
     brought = brought_colours(view0, view1)
 
     def beats(i: int, j: int) -> float:
-        """How far twin j's print falls short of twin i's in following the views, on the points both land on the
-        object: by TOLD_APART and to under HALF_AS_WELL of i's correlation, or the margin is taken as under
-        TOLD_APART. A twin is turned about a centre the partial view only estimates, a few millimetres off, and a
-        fine print correlates less for that alone (a checkered box whose checker repeats under a half turn: 0.87
-        for the true twin, 0.54 for the half-turned one)."""
+        """How far twin j's print falls short of twin i's in following the views, on the points both land on the object:
+        by TOLD_APART and to under HALF_AS_WELL of i's correlation, which itself reaches TOLD_APART, or the margin is
+        taken as under TOLD_APART. A print no twin follows tells none apart: where the goal shows the side the capture
+        did not see (a printed bottle spun half way), every twin kept correlates near or below 0, and one merely less
+        negative than the rest beat them by 0.15. A twin is turned about a centre the partial view only estimates, a few
+        millimetres off, and a fine print correlates less for that alone (a checkered box whose checker repeats under a
+        half turn: 0.87 for the true twin, 0.54 for the half-turned one)."""
         both = np.isfinite(landed[i][:, 0]) & np.isfinite(landed[j][:, 0])
         pi, pj = (pattern_correlation(brought[both], landed[k][both]) for k in (i, j))
-        return pi - pj if pj < HALF_AS_WELL * pi else min(pi - pj, 0.0)
+        return pi - pj if pi >= TOLD_APART and pj < HALF_AS_WELL * pi else min(pi - pj, 0.0)
 
     best = int(np.argmax(pattern))
     if best != 0 and beats(best, 0) < TOLD_APART:  # not clearly better than the refined motion itself: keep that

@@ -53,6 +53,16 @@ def test_a_print_the_goal_lost_leaves_the_shapes_turns_reported():
     assert "print not told apart" in seen.label
 
 
+def test_a_print_neither_twin_follows_tells_none_apart():
+    shape = _tile()
+    repainted = np.full((60, 80, 3), 1 / 3, np.float32)
+    repainted[:, 30:40] = (0.25, 0.5, 0.25)  # another print: the tile as it was correlates -0.73, turned -0.18
+    still = Similarity(1.0, np.eye(3), np.zeros(3))
+    motion, seen, margin = read_turns(still, shape, _view(_printed()), _view(repainted), K, 0.004)
+    assert seen.kind == "box" and seen.print_unread and margin < 0.1  # less bad is not told apart
+    np.testing.assert_allclose(motion.R, np.eye(3))
+
+
 def test_a_can_ends_alike_is_spun_and_flipped():
     can = SeenSymmetry("revolution_ends_alike", np.zeros(3), axis=np.array([0.0, 0.0, 1.0]))
     turns = shape_turns(can)
