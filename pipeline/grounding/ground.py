@@ -92,6 +92,8 @@ def ground(
     symmetry, turns_margin = as_seen(shape, views), None
     if shape.kind != "none" and symmetry.kind == "none" and not hinted:  # a print: does it tell the shape's twins?
         sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine_tolerance(size, cfg))
+    if symmetry.kind == "ball" and not hinted:  # no turn shows: its motion is its centre's shift, nothing tilts it
+        sim = Similarity(sim.scale, np.eye(3), sim.apply(symmetry.centre[None])[0] - sim.scale * symmetry.centre)
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())
