@@ -22,7 +22,7 @@ from pipeline.grounding.compare import (
     square_footprint_axis,
 )
 from pipeline.grounding.ground import ground
-from pipeline.grounding.seen_symmetry import box_turns
+from pipeline.grounding.seen_symmetry import box_turns, on_its_base
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity
 from pipeline.perception.features import FeatureExtractor
@@ -64,14 +64,17 @@ def hidden_by_shape(points: np.ndarray, up_camera: np.ndarray) -> Symmetry | Non
     """The turns the seen points' shape hides (camera frame): a ball's, a body of revolution's about its axis, a
     box's onto itself (seen_symmetry.box_turns), else a square footprint's quarter turns about the vertical
     `up_camera` (a small cube's faces can be too few to tell: square_footprint_axis); None when every turn shows."""
-    symmetry = object_symmetry(points)
-    if symmetry is not None:
-        return symmetry
     import open3d as o3d
 
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
     sparse = np.asarray(cloud.voxel_down_sample(VOXEL_M).points)  # a sensor's points are far denser than faces need
-    box = box_turns(sparse, estimate_normals(sparse, NORMAL_RADIUS_M, np.zeros(3)))
+    normals = estimate_normals(sparse, NORMAL_RADIUS_M, np.zeros(3))
+    symmetry = object_symmetry(points)
+    if symmetry is not None and symmetry.axis is not None:  # a plate's axis from its points alone may lie in it
+        return on_its_base(sparse, normals, up_camera, symmetry)
+    if symmetry is not None:
+        return symmetry
+    box = box_turns(sparse, normals)
     if box is not None:
         return Symmetry(box[0], None, turns=box[1])
     up = square_footprint_axis(points, up_camera)

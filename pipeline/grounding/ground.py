@@ -81,7 +81,7 @@ def ground(
     sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
     candidates = fits + face_hypotheses(view0, view1) + ball_hypotheses(view0, view1) + sweep
     chosen = select_motion(candidates, view0, view1, K, size, cfg, hints)
-    shape = shape_symmetry(*off_support(view0.cloud, view0.normals, pp.points0, inp.mask0, up))
+    shape = shape_symmetry(*off_support(view0.cloud, view0.normals, pp.points0, inp.mask0, up), up)
     twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)
     if twins:  # the winner turned end for end, refined and scored alike: taken where it explains the views better
         twin = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))

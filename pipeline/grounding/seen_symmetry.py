@@ -32,6 +32,11 @@ SLICE_M = 0.005
 BALL_NORMAL_DEG = 10.0  # a ball's normals point away from its centre: this close, BALL_NORMAL_SHARE of them
 BALL_NORMAL_SHARE = 0.9  # (a bowl's inside lies on a sphere too, its normals pointing in)
 BOWL_INWARD_SHARE = 0.6  # points on a sphere, this many facing its centre: a bowl's inside, tried as a revolution
+MERIDIAN_SIN = 0.15  # a body of revolution's normals lie off the planes through its axis by this (sine, median)
+MERIDIAN_TELLING_SIN = 0.3  # normals this far off the axis (sine) tell where it lies ...
+MIN_MERIDIAN_POINTS = 20  # ... this many of them
+SAME_AXIS_DEG = 10.0  # a fitted axis this close to the vertical is the same axis
+OUTLINE_BINS = 36  # sectors round a standing axis in which the outline's reach is compared
 OPEN_INWARD_SHARE = 0.1  # a body of revolution with this many points facing its axis is seen into: open at one end
 BOX_FACE_FILL = 0.88  # each seen face of MIN_FACE_POINTS fills its rectangle this well (a disc fills pi/4 of it)
 MIN_FACE_POINTS = 100
@@ -77,8 +82,9 @@ def off_support(
     return (points[keep], normals[keep]) if keep.sum() >= MIN_FACE_POINTS else (points, normals)
 
 
-def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:
-    """What the seen points' shape alone cannot show: a ball, a body of revolution, a box's equal sides, or none."""
+def shape_symmetry(points: np.ndarray, normals: np.ndarray, up: np.ndarray | None = None) -> SeenSymmetry:
+    """What the seen points' shape alone cannot show: a ball, a body of revolution, a box's equal sides, or none.
+    `up`: the table's normal (camera frame), the axis of a body of revolution standing on it (standing_axis)."""
     P = np.asarray(points, dtype=np.float64)
     revolution = object_symmetry(P)
     if revolution is not None and revolution.axis is None:
@@ -89,7 +95,14 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:
             return SeenSymmetry("none", object_centre(P))
         axis = revolution_axis(P)  # a bowl's inside: on a sphere, facing in, and it may go round an axis
         revolution = None if axis is None else Symmetry(axis.point, axis.direction, axis.ends_alike)
-    if revolution is not None and _whole_revolution(P, normals, revolution.centre, revolution.axis):
+    if revolution is not None and revolution.axis is not None and up is not None:
+        fitted, revolution = revolution, on_its_base(P, normals, up, revolution)
+        if revolution is None:  # round the vertical, but for a handle
+            return SeenSymmetry("none", object_centre(P))
+        standing = revolution is not fitted
+    else:
+        standing = False
+    if revolution is not None and (standing or _whole_revolution(P, normals, revolution.centre, revolution.axis)):
         open_end = _facing_axis_share(P, normals, revolution.centre, revolution.axis) >= OPEN_INWARD_SHARE
         kind = "revolution_ends_alike" if revolution.ends_alike and not open_end else "revolution"
         return SeenSymmetry(kind, revolution.centre, axis=revolution.axis, shape_kind=kind)
@@ -98,6 +111,63 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray) -> SeenSymmetry:
         centre, turns = box
         return SeenSymmetry("box", centre, rotations=turns, shape_kind="box")
     return SeenSymmetry("none", object_centre(P))
+
+
+def on_its_base(points: np.ndarray, normals: np.ndarray, up: np.ndarray, revolution: Symmetry) -> Symmetry | None:
+    """`revolution` (a body of revolution the points (N, 3) were fitted to) with its axis on the vertical `up` where
+    its normals and its outline go round that (standing_axis, _round_outline): whole, whatever faces along it; as it
+    is where its normals do not; None where they do but a part reaches out on one side (a handle: no body of
+    revolution)."""
+    standing = standing_axis(points, normals, up)
+    if standing is None:
+        return revolution
+    if not _round_outline(points, *standing):
+        return None
+    # whether its ends look alike was read along the fitted axis: it holds for the vertical only where they agree
+    alike = revolution.ends_alike and abs(float(revolution.axis @ standing[1])) >= np.cos(np.radians(SAME_AXIS_DEG))
+    return Symmetry(standing[0], standing[1], alike)
+
+
+def standing_axis(points: np.ndarray, normals: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(a point on it, its direction): the table's normal `up` as the axis of the body of revolution the points
+    (N, 3) and their normals lie on, through where the normals say, or None when they do not go round it (what
+    faces along it, a handle's top, is checked by _round_outline). A body of
+    revolution's normals lie in planes through its axis; a shallow dish's points fit many axes (a spherical cap fits
+    any through its centre) and the fit from points alone settles on a tilted one (raycast plates 57-89 deg off,
+    bowls 3-28 deg), while one standing on its base goes round the vertical."""
+    a = up / np.linalg.norm(up)
+    across = np.cross(normals, a)  # n . (a x (p - c)) = 0 on the axis through c: (n x a) . c = (n x a) . p
+    telling = np.linalg.norm(across, axis=1) > MERIDIAN_TELLING_SIN  # a normal along the axis says nothing of it
+    if telling.sum() < MIN_MERIDIAN_POINTS:
+        return None
+    A, P, N = across[telling], points[telling], normals[telling]
+    centre = np.linalg.lstsq(A, np.einsum("ij,ij->i", A, P), rcond=None)[0]
+    centre += (float(np.mean(points @ a)) - centre @ a) * a
+    radial = P - centre
+    radial -= np.outer(radial @ a, a)
+    off = np.linalg.norm(radial, axis=1)
+    near = off > 1e-3  # on the axis, the plane through it is any
+    if near.sum() < MIN_MERIDIAN_POINTS:
+        return None
+    sines = np.abs(np.einsum("ij,ij->i", N[near], np.cross(a, radial[near] / off[near, None])))
+    return (centre, a) if float(np.median(sines)) <= MERIDIAN_SIN else None
+
+
+def _round_outline(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> bool:
+    """Whether the points reach as far from the axis whichever way round it they lie (the outline seen along it, in
+    OUTLINE_BINS sectors, within the REVOLUTION_TOL of the object's size): a pan's or a mug's handle, whose top faces
+    along the axis and tells the normals nothing, reaches out on its side only."""
+    e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    off = points - centre
+    x, y = off @ e1, off @ np.cross(axis, e1)
+    sector = np.floor((np.arctan2(y, x) + np.pi) / (2 * np.pi) * OUTLINE_BINS).astype(int) % OUTLINE_BINS
+    reach = np.hypot(x, y)
+    outline = [np.percentile(reach[sector == k], 95) for k in range(OUTLINE_BINS) if (sector == k).sum() >= 5]
+    if len(outline) < 3:
+        return False
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))
+    return max(outline) - float(np.median(outline)) <= max(REVOLUTION_TOL_M, REVOLUTION_TOL_REL * size)
 
 
 def _radial_cosines(points: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> np.ndarray:

@@ -19,11 +19,14 @@ from bench.pairgen.scoring import reported_rotation_error_deg
 
 CAMERA_AT = np.array([0.0, 0.0, 0.0])
 TOWARD = Rotation.from_euler("xyz", [35, -25, 10], degrees=True).as_matrix()  # the object as the camera sees it
+ON_TABLE = Rotation.from_euler("x", 145, degrees=True).as_matrix()  # its z up, seen from above at 35 deg
 
 
-def _seen(points: np.ndarray, normals: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Points and normals turned to face the camera from `at` (camera frame), those facing it kept."""
-    P, N = points @ TOWARD.T + at, normals @ TOWARD.T
+def _seen(
+    points: np.ndarray, normals: np.ndarray, at: np.ndarray, toward: np.ndarray = TOWARD
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points and normals turned by `toward` and put at `at` (camera frame), those facing the camera kept."""
+    P, N = points @ toward.T + at, normals @ toward.T
     facing = np.einsum("ij,ij->i", N, CAMERA_AT - P) > 0
     return P[facing], N[facing]
 
@@ -226,3 +229,31 @@ def test_points_a_segmenters_mask_bled_onto_the_support_are_cut_off_before_the_s
     np.testing.assert_array_equal(kept_normals, normals[600:])
     unknown = np.full_like(point_map, np.nan)
     assert len(off_support(points, normals, unknown, mask, up)[0]) == 1200
+
+
+def _dish(rng: np.random.Generator, handle: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """A plate standing on the table (its axis the object's z): a shallow dish, part of a sphere of 0.3 m about a
+    point on the axis, 9 cm across, with a rim round it; a pan's flat handle sticking out sideways if asked."""
+    a, r = rng.uniform(0, 2 * np.pi, 8000), 0.09 * np.sqrt(rng.random(8000))
+    toward_centre = np.column_stack([-r * np.cos(a), -r * np.sin(a), np.sqrt(0.3**2 - r**2)])
+    points = -toward_centre + [0.0, 0.0, 0.3]  # the dish's lowest point at the origin, the sphere's centre above
+    normals = toward_centre / 0.3  # facing up and in, toward the sphere's centre
+    b = rng.uniform(0, 2 * np.pi, 1500)
+    rim_height = 0.3 - np.sqrt(0.3**2 - 0.09**2)
+    rim = np.column_stack([0.092 * np.cos(b), 0.092 * np.sin(b), rim_height + rng.uniform(-0.003, 0.003, 1500)])
+    rim_normals = np.column_stack([np.cos(b), np.sin(b), np.zeros(1500)])
+    points, normals = np.vstack([points, rim]), np.vstack([normals, rim_normals])
+    if handle:
+        bar = np.column_stack([rng.uniform(0.09, 0.2, 1500), rng.uniform(-0.01, 0.01, 1500), np.full(1500, rim_height)])
+        points, normals = np.vstack([points, bar]), np.vstack([normals, np.tile([0.0, 0.0, 1.0], (1500, 1))])
+    return _seen(points, normals, np.array([0.0, 0.0, 0.8]), ON_TABLE)
+
+
+def test_a_plate_standing_on_the_table_goes_round_the_vertical_and_a_pans_handle_breaks_it():
+    rng = np.random.default_rng(6)
+    up = ON_TABLE @ [0.0, 0.0, 1.0]  # the table's normal as the camera sees it
+    plate = shape_symmetry(*_dish(rng), up)
+    assert plate.kind == "revolution" and abs(plate.axis @ up) > np.cos(np.radians(1.0)), plate
+    unaided = shape_symmetry(*_dish(rng))  # a shallow dish fits axes all round its sphere's centre
+    assert unaided.axis is None or abs(unaided.axis @ up) < np.cos(np.radians(10.0)), unaided
+    assert shape_symmetry(*_dish(rng, handle=True), up).kind == "none"
