@@ -15,7 +15,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
-from pipeline.grounding.hypotheses import ball_hypotheses, end_for_end, face_hypotheses, sweep_hypotheses
+from pipeline.grounding.hypotheses import (
+    ball_hypotheses,
+    end_for_end,
+    face_hypotheses,
+    footprint_hypotheses,
+    sweep_hypotheses,
+)
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.prepare import Prepared, prepare, refuse
 from pipeline.grounding.ray_rest import rest_along_ray
@@ -79,9 +85,13 @@ def ground(
     background = ~(inp.mask0 | inp.mask1)
     up = _up_direction(pp.points0[background & np.isfinite(pp.depth0)], T_base_camera, rng)
     sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
-    candidates = fits + face_hypotheses(view0, view1) + ball_hypotheses(view0, view1) + sweep
+    # each view's points above what it stands on: the object's own, without the support a mask bleeds onto
+    seen0 = off_support(view0.cloud, view0.normals, pp.points0, inp.mask0, up)
+    seen1 = off_support(view1.cloud, view1.normals, pp.points1, inp.mask1, up)
+    footprints = footprint_hypotheses(seen0[0], seen1[0], up)
+    candidates = fits + face_hypotheses(view0, view1) + footprints + ball_hypotheses(view0, view1) + sweep
     chosen = select_motion(candidates, view0, view1, K, size, cfg, hints)
-    shape = shape_symmetry(*off_support(view0.cloud, view0.normals, pp.points0, inp.mask0, up), up)
+    shape = shape_symmetry(*seen0, up)
     twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)
     if twins:  # the winner turned end for end, refined and scored alike: taken where it explains the views better
         twin = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))

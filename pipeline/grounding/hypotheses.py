@@ -37,6 +37,7 @@ DISTINCT_PEAKS = 10  # sweep rotations at least SEED_SEPARATION_DEG apart, ranke
 SEED_SEPARATION_DEG = 20.0
 FACE_TOL_DEG = 12.0  # normals within this angle belong to one planar face
 MIN_FACE_POINTS = 5
+RECTANGLE_FILL = 0.9  # a box's footprint seen from above fills its smallest rectangle this well
 FACE_POINTS = 400  # normals looked at to find the faces
 SHIFT_ITERATIONS = 5
 BALL_FIT_REL = 0.05  # the goal's points lie on the capture's ball: median distance off it / its radius
@@ -182,6 +183,37 @@ def face_hypotheses(view0: View, view1: View) -> list[Similarity]:
         A = np.einsum("mki,mkj->mij", n, n) + 1e-3 * k * np.eye(3)
         t = t + np.linalg.solve(A, np.einsum("mki,mk->mi", n, r)[..., None])[..., 0]  # point-to-plane, shift only
     return [Similarity(1.0, R, tt) for R, tt in zip(rotations, t, strict=True)]
+
+
+def footprint_hypotheses(points0: np.ndarray, points1: np.ndarray, up: np.ndarray) -> list[Similarity]:
+    """Turns about the vertical that carry the smallest rectangle round the capture's footprint (its points above the
+    support, seen from above) onto the goal's, one for each way its sides can map (4), its middle onto the goal's
+    at the same height as its points stood: a box slid or turned on the table, whose faces a small, noisy goal view
+    shows too few normals of for face_hypotheses (raycast boxes turned 16-60 deg off the truth, their footprints'
+    within 5 deg). None where either footprint does not fill its rectangle (a disc fills pi/4 of it)."""
+    if len(points0) < MIN_FACE_POINTS or len(points1) < MIN_FACE_POINTS:
+        return []
+    import cv2
+
+    up = up / np.linalg.norm(up)
+    e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(up, e1)
+
+    def footprint(P: np.ndarray) -> tuple[float, np.ndarray, bool]:
+        flat = np.column_stack([P @ e1, P @ e2]).astype(np.float32)
+        (x, y), (w, h), angle = cv2.minAreaRect(flat)
+        boxy = cv2.contourArea(cv2.convexHull(flat)) >= RECTANGLE_FILL * w * h
+        return np.radians(angle), x * e1 + y * e2 + float(np.mean(P @ up)) * up, boxy
+
+    (a0, c0, boxy0), (a1, c1, boxy1) = footprint(points0), footprint(points1)
+    if not (boxy0 and boxy1):  # a round footprint's rectangle turns with nothing
+        return []
+    out = []
+    for k in range(4):
+        R = Rotation.from_rotvec((a1 - a0 + k * np.pi / 2) * up).as_matrix()
+        out.append(Similarity(1.0, R, c1 - R @ c0))
+    return out
 
 
 def ball_hypotheses(view0: View, view1: View) -> list[Similarity]:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.hypotheses import face_frame, face_hypotheses
+from pipeline.grounding.hypotheses import face_frame, face_hypotheses, footprint_hypotheses
 from pipeline.grounding.verify import View
 
 
@@ -98,3 +98,33 @@ def test_a_bottle_registered_end_for_end_has_the_true_motion_among_its_twins(see
     assert np.degrees(np.arccos(np.clip((best.R @ axis0) @ (R_true @ axis0), -1, 1))) < 1.0
     ends = np.array([c - 0.08 * axis0, c + 0.08 * axis0])  # the axis' points land where the truth puts them
     np.testing.assert_allclose(best.apply(ends), ends @ R_true.T + t_true, atol=0.005)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_footprint_hypotheses_turn_a_box_on_the_table_by_its_outline_alone(seed):
+    """A box standing on the table, slid and turned about the vertical: its footprint's rectangle gives the turn
+    with no normals at all, from other points of its faces in the goal."""
+    rng = np.random.default_rng(seed)
+    up = Rotation.from_euler("x", 145, degrees=True).as_matrix() @ [0.0, 0.0, 1.0]  # seen from above at 35 deg
+    stand = Rotation.align_vectors([up], [[0.0, 0.0, 1.0]])[0].as_matrix()  # the box's z up
+    points, _ = _box_faces(rng)
+    yaw0, turn = rng.uniform(0, 360), rng.uniform(-180, 180)
+    pose = stand @ Rotation.from_euler("z", yaw0, degrees=True).as_matrix()
+    placed = points @ pose.T + [0.0, 0.0, 0.6]
+    R = Rotation.from_rotvec(np.radians(turn) * up).as_matrix()
+    t = np.cross(up, [1.0, 0.0, 0.0]) * rng.uniform(-0.2, 0.2)  # a slide along the table
+    goal_points, _ = _box_faces(rng)  # other points on the same faces
+    goal = (goal_points @ pose.T + [0.0, 0.0, 0.6]) @ R.T + t
+    hypotheses = footprint_hypotheses(placed, goal, up)
+    angles = [np.degrees(np.arccos(np.clip((np.trace(h.R.T @ R) - 1) / 2, -1, 1))) for h in hypotheses]
+    assert len(hypotheses) == 4 and min(angles) < 1.0, angles
+    best = hypotheses[int(np.argmin(angles))]
+    centre = placed.mean(axis=0)
+    np.testing.assert_allclose(best.apply(centre[None])[0], R @ centre + t, atol=3e-3)
+
+
+def test_a_round_footprint_gives_no_turn():
+    rng = np.random.default_rng(0)
+    a, r = rng.uniform(0, 2 * np.pi, 2000), 0.05 * np.sqrt(rng.random(2000))
+    disc = np.column_stack([r * np.cos(a), r * np.sin(a), np.full(2000, 0.6)])
+    assert footprint_hypotheses(disc, disc + np.array([0.1, 0.0, 0.0]), np.array([0.0, 0.0, -1.0])) == []
