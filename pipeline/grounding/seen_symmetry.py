@@ -132,18 +132,16 @@ def on_its_base(points: np.ndarray, normals: np.ndarray, up: np.ndarray, revolut
 def standing_axis(points: np.ndarray, normals: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """(a point on it, its direction): the table's normal `up` as the axis of the body of revolution the points
     (N, 3) and their normals lie on, through where the normals say, or None when they do not go round it (what
-    faces along it, a handle's top, is checked by _round_outline). A body of
-    revolution's normals lie in planes through its axis; a shallow dish's points fit many axes (a spherical cap fits
-    any through its centre) and the fit from points alone settles on a tilted one (raycast plates 57-89 deg off,
-    bowls 3-28 deg), while one standing on its base goes round the vertical."""
+    faces along it, a handle's top, is checked by _round_outline). A body of revolution's normals lie in planes
+    through its axis; a shallow dish's points fit many axes (a spherical cap fits any through its centre) and the fit
+    from points alone settles on a tilted one (raycast plates 57-89 deg off, bowls 3-28 deg), while one standing on
+    its base goes round the vertical."""
     a = up / np.linalg.norm(up)
-    across = np.cross(normals, a)  # n . (a x (p - c)) = 0 on the axis through c: (n x a) . c = (n x a) . p
-    telling = np.linalg.norm(across, axis=1) > MERIDIAN_TELLING_SIN  # a normal along the axis says nothing of it
-    if telling.sum() < MIN_MERIDIAN_POINTS:
+    centre = vertical_axis_centre(points, normals, a)
+    if centre is None:
         return None
-    A, P, N = across[telling], points[telling], normals[telling]
-    centre = np.linalg.lstsq(A, np.einsum("ij,ij->i", A, P), rcond=None)[0]
-    centre += (float(np.mean(points @ a)) - centre @ a) * a
+    telling = np.linalg.norm(np.cross(normals, a), axis=1) > MERIDIAN_TELLING_SIN
+    P, N = points[telling], normals[telling]
     radial = P - centre
     radial -= np.outer(radial @ a, a)
     off = np.linalg.norm(radial, axis=1)
@@ -154,22 +152,58 @@ def standing_axis(points: np.ndarray, normals: np.ndarray, up: np.ndarray) -> tu
     return (centre, a) if float(np.median(sines)) <= MERIDIAN_SIN else None
 
 
+def vertical_axis_centre(points: np.ndarray, normals: np.ndarray, up: np.ndarray) -> np.ndarray | None:
+    """Where the vertical axis (along unit `up`) the normals meet passes, at the points' mean height: the point c with
+    n . (up x (p - c)) = 0, that is (n x up) . c = (n x up) . p, in least squares over the normals that tell (off the
+    axis by MERIDIAN_TELLING_SIN); None with fewer than MIN_MERIDIAN_POINTS of them."""
+    across = np.cross(normals, up)
+    telling = np.linalg.norm(across, axis=1) > MERIDIAN_TELLING_SIN  # a normal along the axis says nothing of it
+    if telling.sum() < MIN_MERIDIAN_POINTS:
+        return None
+    A = across[telling]
+    centre = np.linalg.lstsq(A, np.einsum("ij,ij->i", A, points[telling]), rcond=None)[0]
+    return centre + (float(np.mean(points @ up)) - centre @ up) * up
+
+
 def _round_outline(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> bool:
     """Whether the points reach about as far from the axis whichever way round it they lie (the outline seen along
     it, in OUTLINE_BINS sectors, none beyond the typical reach by OUTLINE_REACH_REL of it): a pan's or a mug's
     handle, whose top faces along the axis and tells the normals nothing, reaches out on its side only, by a good
     part of the body's radius; a centre a few millimetres off or a segmenter's blob on the rim do not."""
+    outline = _outline(points, centre, axis)
+    return outline is not None and outline[1] <= OUTLINE_REACH_REL * outline[0]
+
+
+def handle_azimuth(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> float | None:
+    """The angle [rad] about the axis at which a part reaches out beyond the round body (a handle), in the frame
+    _azimuths sets up from the axis alone (so two views' angles compare), or None where the outline is round."""
+    outline = _outline(points, centre, axis)
+    if outline is None or outline[1] <= OUTLINE_REACH_REL * outline[0]:
+        return None
+    angle, reach = _azimuths(points, centre, axis)
+    out = reach > outline[0] * (1.0 + 0.5 * OUTLINE_REACH_REL)  # well beyond the body: the part reaching out
+    return float(np.arctan2(np.sin(angle[out]).sum(), np.cos(angle[out]).sum()))
+
+
+def _outline(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> tuple[float, float] | None:
+    """(the typical reach from the axis over OUTLINE_BINS sectors round it, how far the furthest sector reaches
+    beyond that), None where fewer than 3 sectors hold points."""
+    angle, reach = _azimuths(points, centre, axis)
+    sector = np.floor((angle + np.pi) / (2 * np.pi) * OUTLINE_BINS).astype(int) % OUTLINE_BINS
+    outline = [np.percentile(reach[sector == k], 95) for k in range(OUTLINE_BINS) if (sector == k).sum() >= 5]
+    if len(outline) < 3:
+        return None
+    typical = float(np.median(outline))
+    return typical, max(outline) - typical
+
+
+def _azimuths(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(angle [rad] about the axis, distance from it) of each point, the angle from a direction set by the axis."""
     e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     off = points - centre
     x, y = off @ e1, off @ np.cross(axis, e1)
-    sector = np.floor((np.arctan2(y, x) + np.pi) / (2 * np.pi) * OUTLINE_BINS).astype(int) % OUTLINE_BINS
-    reach = np.hypot(x, y)
-    outline = [np.percentile(reach[sector == k], 95) for k in range(OUTLINE_BINS) if (sector == k).sum() >= 5]
-    if len(outline) < 3:
-        return False
-    typical = float(np.median(outline))
-    return max(outline) - typical <= OUTLINE_REACH_REL * typical
+    return np.arctan2(y, x), np.hypot(x, y)
 
 
 def _radial_cosines(points: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> np.ndarray:
