@@ -85,7 +85,7 @@ def turn_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
 
 def _fit(points: np.ndarray, axis: np.ndarray, size: float) -> RevolutionAxis:
     """Circles about one line along `axis`, one radius per slice: x^2 + y^2 = 2 x0 x + 2 y0 y + c_slice."""
-    e1, e2 = _basis(axis)
+    e1, e2 = basis_across(axis)
     s = points @ axis
     uv = np.column_stack([points @ e1, points @ e2])
     labels, slice_of = np.unique(np.floor((s - s.min()) / SLICE_M).astype(int), return_inverse=True)
@@ -103,7 +103,9 @@ def _fit(points: np.ndarray, axis: np.ndarray, size: float) -> RevolutionAxis:
     return RevolutionAxis(point, axis, float(np.median(radius)), residual)
 
 
-def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def basis_across(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(e1, e2): unit vectors across the unit `axis`, with (e1, e2, axis) right-handed; set by the axis alone, so
+    angles measured about one axis in two views compare."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     e1 = np.cross(axis, helper)
     e1 /= np.linalg.norm(e1)
@@ -128,7 +130,7 @@ def _refined(points: np.ndarray, axis: RevolutionAxis) -> RevolutionAxis:
     about it, a can stood up leans, and its taper reads as a neck."""
     direction, point = axis.direction, axis.point
     for _ in range(2):
-        e1, e2 = _basis(direction)
+        e1, e2 = basis_across(direction)
         centres = []
         for p in _middle_slices(points, direction):
             uv = np.column_stack([p @ e1, p @ e2])

@@ -64,16 +64,16 @@ def hidden_by_shape(points: np.ndarray, up_camera: np.ndarray) -> Symmetry | Non
     """The turns the seen points' shape hides (camera frame): a ball's, a body of revolution's about its axis, a
     box's onto itself (seen_symmetry.box_turns), else a square footprint's quarter turns about the vertical
     `up_camera` (a small cube's faces can be too few to tell: square_footprint_axis); None when every turn shows."""
+    symmetry = object_symmetry(points)
+    if symmetry is not None and symmetry.ball:
+        return symmetry
     import open3d as o3d
 
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
     sparse = np.asarray(cloud.voxel_down_sample(VOXEL_M).points)  # a sensor's points are far denser than faces need
     normals = estimate_normals(sparse, NORMAL_RADIUS_M, np.zeros(3))
-    symmetry = object_symmetry(points)
-    if symmetry is not None and symmetry.axis is not None:  # a plate's axis from its points alone may lie in it
+    if symmetry is not None:  # a plate's axis from its points alone may lie in it
         return on_its_base(sparse, normals, up_camera, symmetry)
-    if symmetry is not None:
-        return symmetry
     box = box_turns(sparse, normals)
     if box is not None:
         return Symmetry(box[0], None, turns=box[1])

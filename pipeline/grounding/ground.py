@@ -89,8 +89,8 @@ def ground(
     # each view's points above what it stands on: the object's own, without the support a mask bleeds onto
     seen0 = off_support(view0.cloud, view0.normals, pp.points0, inp.mask0, up)
     seen1 = off_support(view1.cloud, view1.normals, pp.points1, inp.mask1, up)
-    footprints = footprint_hypotheses(seen0[0], seen1[0], up) + handle_hypotheses(seen0, seen1, up)
-    candidates = fits + face_hypotheses(view0, view1) + footprints + ball_hypotheses(view0, view1) + sweep
+    on_table = footprint_hypotheses(seen0[0], seen1[0], up) + handle_hypotheses(seen0, seen1, up)  # turns about up
+    candidates = fits + face_hypotheses(view0, view1) + on_table + ball_hypotheses(view0, view1) + sweep
     chosen = select_motion(candidates, view0, view1, K, size, cfg, hints)
     shape = shape_symmetry(*seen0, up)
     twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)

@@ -23,7 +23,7 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
-from pipeline.contact.symmetry import ball_centre
+from pipeline.contact.symmetry import ball_centre, basis_across
 from pipeline.grounding.compare import half_turn_across
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
@@ -196,9 +196,7 @@ def footprint_hypotheses(points0: np.ndarray, points1: np.ndarray, up: np.ndarra
     import cv2
 
     up = up / np.linalg.norm(up)
-    e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(up, e1)
+    e1, e2 = basis_across(up)
 
     def footprint(P: np.ndarray) -> tuple[float, np.ndarray, bool]:
         flat = np.column_stack([P @ e1, P @ e2]).astype(np.float32)

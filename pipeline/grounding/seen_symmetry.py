@@ -14,7 +14,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from pipeline.contact.symmetry import revolution_axis
+from pipeline.contact.symmetry import basis_across, revolution_axis
 from pipeline.grounding.compare import SAME_SIDE_M, Symmetry, object_centre, object_symmetry
 from pipeline.grounding.hypotheses import AXIS_MAPS, FACE_TOL_DEG, face_frame
 from pipeline.grounding.types import SeenSymmetry
@@ -199,10 +199,9 @@ def _outline(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> tuple[
 
 def _azimuths(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(angle [rad] about the axis, distance from it) of each point, the angle from a direction set by the axis."""
-    e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
+    e1, e2 = basis_across(axis)
     off = points - centre
-    x, y = off @ e1, off @ np.cross(axis, e1)
+    x, y = off @ e1, off @ e2
     return np.arctan2(y, x), np.hypot(x, y)
 
 

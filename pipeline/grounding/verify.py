@@ -123,9 +123,7 @@ def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: fl
     index, X, colour = np.flatnonzero(keep), X[keep], src.chroma[keep]
     if len(X) == 0:
         return _Landing(0, 0, max(carved, 1), found)
-    uv = K.project(X)
-    u, v = np.round(uv[:, 0]).astype(int), np.round(uv[:, 1]).astype(int)
-    inside = (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
+    u, v, inside = _pixels(K, X)
     outside_count = int((~inside).sum())
     index, u, v, z, colour = index[inside], u[inside], v[inside], X[inside, 2], colour[inside]
     d = dst.depth[v, u]
@@ -147,10 +145,16 @@ def _in_front_of_observed(dst: View, K: CameraIntrinsics, X: np.ndarray, tol_m: 
     """How many points X (N, 3) lie more than tol_m in front of the surface dst's depth sees along their rays."""
     if len(X) == 0:
         return 0
+    u, v, inside = _pixels(K, X)
+    return int(np.sum(X[inside, 2] < dst.depth[v[inside], u[inside]] - tol_m))  # NaN depth: no evidence
+
+
+def _pixels(K: CameraIntrinsics, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(u, v, inside): the pixel each point (N, 3, in front of the camera) projects to, and whether it is in the
+    image."""
     uv = np.round(K.project(X)).astype(int)
-    inside = (uv[:, 0] >= 0) & (uv[:, 0] < K.width) & (uv[:, 1] >= 0) & (uv[:, 1] < K.height)
-    d = dst.depth[uv[inside, 1], uv[inside, 0]]
-    return int(np.sum(X[inside, 2] < d - tol_m))  # NaN depth compares False: no evidence
+    u, v = uv[:, 0], uv[:, 1]
+    return u, v, (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
 
 
 def pattern_correlation(brought: np.ndarray, found: np.ndarray) -> float:
