@@ -39,9 +39,10 @@ def match_pixels(
     f1 = features.extract(rgb1, dst_px, points1)
     idx, sim = best_matches(f0, f1)
     keep = sim >= min_similarity
-    if mutual:
-        back, _ = best_matches(f1, f0)
-        keep &= back[idx] == np.arange(len(src_px))
+    if mutual:  # only goal pixels some source pixel chose need their own best match: not every goal pixel
+        chosen, slot = np.unique(idx, return_inverse=True)
+        back, _ = best_matches(f1[chosen], f0)
+        keep &= back[slot] == np.arange(len(src_px))
     return Matches(src_px[keep], dst_px[idx[keep]], sim[keep])
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pipeline.grounding.matching import match_pixels
 from pipeline.perception.descriptors import normalise_rows, sample_bilinear
 from pipeline.perception.features import best_matches, make_feature_extractor
 
@@ -17,6 +18,31 @@ def test_chunked_matches_equal_brute_force():
     full = src @ dst.T
     np.testing.assert_array_equal(idx, full.argmax(axis=1))
     np.testing.assert_allclose(sim, full.max(axis=1), rtol=1e-5)
+
+
+class _Lookup:
+    """Features of a test without images: the "image" is the descriptor table, a pixel's u its row."""
+
+    name = "lookup"
+
+    def extract(self, table, pixels, points=None):
+        return table[np.asarray(pixels)[:, 0]]
+
+
+def _rows(n: int) -> np.ndarray:
+    return np.c_[np.arange(n), np.zeros(n, int)]
+
+
+def test_mutual_matches_are_those_whose_goal_pixel_chooses_them_back():
+    rng = np.random.default_rng(1)
+    src, dst = normalise_rows(rng.normal(size=(200, 8))), normalise_rows(rng.normal(size=(900, 8)))
+    full = src @ dst.T
+    forward, back = full.argmax(axis=1), full.argmax(axis=0)
+    mutual = np.flatnonzero(back[forward] == np.arange(200))
+    assert 0 < len(mutual) < 200
+    m = match_pixels(_Lookup(), src, _rows(200), dst, _rows(900), mutual=True)
+    np.testing.assert_array_equal(m.src_px[:, 0], mutual)
+    np.testing.assert_array_equal(m.dst_px[:, 0], forward[mutual])
 
 
 def test_bilinear_sampling_hits_cell_centres():
