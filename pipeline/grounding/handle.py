@@ -5,15 +5,32 @@ place it among the points, so the geometric agreement hardly tells a mug's turns
 handle is where the outline reaches out beyond the round body (seen_symmetry.handle_azimuth), in both views: the turn
 about the vertical that carries the one direction onto the other, about the body's axis, is offered as a
 hypothesis (raycast mugs were 50-175 deg off).
+
+Where the goal's blurred outline reaches out elsewhere too, that hypothesis is off, and the motion chosen keeps the
+handle where the capture saw it (the body's seen side kept in view scores best). turn_by_handle then reads the turn
+off the goal's silhouette instead: the capture's handle, spun with the body about its axis, must land on the goal's
+mask wherever it shows beside the body.
 """
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.seen_symmetry import handle_azimuth, standing_axis, vertical_axis_centre
+from drivers.types import CameraIntrinsics
+from pipeline.grounding.seen_symmetry import handle_azimuth, handle_points, standing_axis, vertical_axis_centre
 from pipeline.grounding.umeyama import Similarity
+from pipeline.grounding.verify import View, depth_tolerance
+
+SPIN_STEP_DEG = 5.0  # the turns about the body's axis tried
+STANDING_DEG = 10.0  # a motion that tilts the vertical further does not leave the body standing
+MIN_HANDLE_POINTS = 10
+BODY_POINTS = 300  # of the body's seen points, swept round its axis to draw its outline in the goal image
+OUTLINE_GROW_PX = 3  # the swept points' gaps closed, and a mask's outline a few pixels off
+BETTER_BY = 0.2  # of the handle's points: a turn must explain this share more of them than the motion's own
+HANDLE_TOLS = 2.0  # a thin handle's goal depth bleeds toward what lies behind it: it is in front only this far
+TIED = 0.05  # turns within this share of the best explain the goal as well: the handle hides behind the body
 
 
 def handle_hypotheses(
@@ -33,3 +50,91 @@ def handle_hypotheses(
         return []
     R = Rotation.from_rotvec((h1 - h0) * a).as_matrix()
     return [Similarity(1.0, R, c1 - R @ c0)]
+
+
+def turn_by_handle(
+    motion: Similarity,
+    seen0: tuple[np.ndarray, np.ndarray],
+    up: np.ndarray,
+    view1: View,
+    K: CameraIntrinsics,
+    tol_m: float,
+) -> Similarity:
+    """`motion`, spun about the axis of the body standing in the capture (`seen0`: its points above the support and
+    their normals), to where its handle best explains the goal's silhouette (`mask1`); the motion itself unless the
+    capture shows a standing body with a handle, the motion leaves it standing and a turn explains the handle
+    BETTER_BY more.
+
+    Only handle points seen beside the body's outline in the goal image tell: on the goal's mask they are explained,
+    off it contradicted. A handle behind (or in front of) the body tells nothing, so where the goal shows none the
+    turns that hide it tie, and the middle of them is taken."""
+    up = up / np.linalg.norm(up)
+    if float(motion.R @ up @ up) < np.cos(np.radians(STANDING_DEG)):
+        return motion
+    standing = standing_axis(*seen0, up)
+    if standing is None:
+        return motion
+    centre, axis = standing
+    parts = handle_points(seen0[0], centre, axis)
+    if parts is None or parts[0].sum() < MIN_HANDLE_POINTS:
+        return motion
+    handle, body = seen0[0][parts[0]], seen0[0][parts[1]]
+    body = body[:: max(1, len(body) // BODY_POINTS)]
+    spins = Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, SPIN_STEP_DEG))[:, None] * axis).as_matrix()
+    twins = [motion.turned_first(g, centre) for g in spins]
+    outline = _drawn(np.vstack([t.apply(body) for t in twins]), K)  # the same whichever way the body is spun
+    outline = cv2.dilate(outline.astype(np.uint8), _disc(OUTLINE_GROW_PX)).astype(bool)
+    tol_m = depth_tolerance(tol_m, view1)
+    scores = np.array([_handle_evidence(t.apply(handle), outline, view1, K, tol_m) for t in twins])
+    best = _middle_of_best(scores)
+    return twins[best] if scores[best] >= scores[0] + BETTER_BY else motion
+
+
+def _handle_evidence(X: np.ndarray, outline: np.ndarray, view1: View, K: CameraIntrinsics, tol_m: float) -> float:
+    """(explained - contradicted) / all, of the handle points X (N, 3): beside the body's outline in the goal image,
+    on the goal's mask or off it; over the body, at the goal's depth or well in front of it (a handle turned
+    toward the camera where the goal shows the body behind). Behind the body they tell nothing."""
+    u, v, inside = _pixels(X, K)
+    u, v, z = u[inside], v[inside], X[inside, 2]
+    beside, on_mask, d = ~outline[v, u], view1.mask[v, u], view1.depth[v, u]
+    with np.errstate(invalid="ignore"):  # NaN depth: no evidence
+        at_depth, in_front = np.abs(z - d) <= tol_m, z < d - HANDLE_TOLS * tol_m
+    explained = np.where(beside, on_mask, on_mask & at_depth)
+    contradicted = np.where(beside, ~on_mask, in_front)
+    return float(explained.sum() - contradicted.sum()) / len(X)
+
+
+def _drawn(X: np.ndarray, K: CameraIntrinsics) -> np.ndarray:
+    """(H, W) the pixels points X (N, 3) project onto."""
+    image = np.zeros((K.height, K.width), dtype=bool)
+    u, v, inside = _pixels(X, K)
+    image[v[inside], u[inside]] = True
+    return image
+
+
+def _pixels(X: np.ndarray, K: CameraIntrinsics) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(u, v, inside): the pixel each point projects to (0 for points behind the camera), and whether it is in the
+    image in front of the camera."""
+    front = X[:, 2] > 1e-3
+    uv = np.zeros((len(X), 2), dtype=int)
+    uv[front] = np.round(K.project(X[front])).astype(int)
+    u, v = uv[:, 0], uv[:, 1]
+    return u, v, front & (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
+
+
+def _disc(radius_px: int) -> np.ndarray:
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius_px + 1,) * 2)
+
+
+def _middle_of_best(scores: np.ndarray) -> int:
+    """The index in the middle of the run (round the circle of turns) of scores within TIED of the best."""
+    n, top = len(scores), int(np.argmax(scores))
+    tied = scores >= scores[top] - TIED
+    if tied.all():
+        return top
+    lo, hi = top, top
+    while tied[(lo - 1) % n]:
+        lo -= 1
+    while tied[(hi + 1) % n]:
+        hi += 1
+    return ((lo + hi) // 2) % n

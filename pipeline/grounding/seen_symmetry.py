@@ -177,12 +177,21 @@ def _round_outline(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> 
 def handle_azimuth(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> float | None:
     """The angle [rad] about the axis at which a part reaches out beyond the round body (a handle), in the frame
     _azimuths sets up from the axis alone (so two views' angles compare), or None where the outline is round."""
+    parts = handle_points(points, centre, axis)
+    if parts is None:
+        return None
+    angle, _ = _azimuths(points[parts[0]], centre, axis)
+    return float(np.arctan2(np.sin(angle).sum(), np.cos(angle).sum()))
+
+
+def handle_points(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(which points (N,) lie well beyond the round body, on the part that reaches out: a handle; which lie within
+    the body's typical reach from the axis), or None where the outline seen along the axis is round."""
     outline = _outline(points, centre, axis)
     if outline is None or outline[1] <= OUTLINE_REACH_REL * outline[0]:
         return None
-    angle, reach = _azimuths(points, centre, axis)
-    out = reach > outline[0] * (1.0 + 0.5 * OUTLINE_REACH_REL)  # well beyond the body: the part reaching out
-    return float(np.arctan2(np.sin(angle[out]).sum(), np.cos(angle[out]).sum()))
+    _, reach = _azimuths(points, centre, axis)
+    return reach > outline[0] * (1.0 + 0.5 * OUTLINE_REACH_REL), reach <= outline[0]
 
 
 def _outline(points: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> tuple[float, float] | None:

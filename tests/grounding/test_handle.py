@@ -6,19 +6,25 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.handle import handle_hypotheses
+from drivers.types import CameraIntrinsics
+from pipeline.grounding.compare import rotation_deg
+from pipeline.grounding.handle import handle_hypotheses, turn_by_handle
+from pipeline.grounding.umeyama import Similarity
+from pipeline.grounding.verify import View
 
 ON_TABLE = Rotation.from_euler("x", 145, degrees=True).as_matrix()  # the object's z up, seen from above at 35 deg
 UP = ON_TABLE @ [0.0, 0.0, 1.0]
 
 
-def _mug(rng: np.random.Generator, yaw_deg: float, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A can's wall 8 cm across and 10 cm tall with a bar reaching 4 cm out at its top (its handle, facing up),
+def _mug(
+    rng: np.random.Generator, yaw_deg: float, at: np.ndarray, bar_height: float = 0.1
+) -> tuple[np.ndarray, np.ndarray]:
+    """A can's wall 8 cm across and 10 cm tall with a bar reaching 4 cm out at bar_height (its handle, facing up),
     turned by yaw_deg about its axis and standing at `at` (camera frame), the points facing the camera kept."""
     a, z = rng.uniform(0, 2 * np.pi, 5000), rng.uniform(0.0, 0.1, 5000)
     wall = np.column_stack([0.04 * np.cos(a), 0.04 * np.sin(a), z])
     wall_normals = np.column_stack([np.cos(a), np.sin(a), np.zeros(5000)])
-    bar = np.column_stack([rng.uniform(0.04, 0.08, 800), rng.uniform(-0.006, 0.006, 800), np.full(800, 0.1)])
+    bar = np.column_stack([rng.uniform(0.04, 0.08, 800), rng.uniform(-0.006, 0.006, 800), np.full(800, bar_height)])
     points = np.vstack([wall, bar])
     normals = np.vstack([wall_normals, np.tile([0.0, 0.0, 1.0], (800, 1))])
     R = ON_TABLE @ Rotation.from_euler("z", yaw_deg, degrees=True).as_matrix()
@@ -44,3 +50,62 @@ def test_a_body_with_no_handle_gives_no_turn():
     wall = np.abs(N @ UP) < 0.5  # the bar faces up: without it the outline is round
     assert handle_hypotheses((P[wall], N[wall]), (P[wall], N[wall]), UP) == []
     assert len(handle_hypotheses((P, N), (P, N), UP)) == 1
+
+
+K = CameraIntrinsics(320, 240, 300.0, 300.0, 160.0, 120.0)
+BASE = np.array([0.0, 0.02, 0.6])
+
+
+def _goal_view(yaw_deg: float, bar_height: float = 0.1) -> View:
+    """The goal image of the mug standing at BASE turned by yaw_deg: its depth (z-buffered) and mask."""
+    rng = np.random.default_rng(5)
+    a, z = rng.uniform(0, 2 * np.pi, 60000), rng.uniform(0.0, 0.1, 60000)
+    wall = np.column_stack([0.04 * np.cos(a), 0.04 * np.sin(a), z])
+    bar = np.column_stack([rng.uniform(0.04, 0.08, 6000), rng.uniform(-0.006, 0.006, 6000), np.full(6000, bar_height)])
+    R = ON_TABLE @ Rotation.from_euler("z", yaw_deg, degrees=True).as_matrix()
+    X = np.vstack([wall, bar]) @ R.T + BASE
+    uv = np.round(K.project(X)).astype(int)
+    depth = np.full((K.height, K.width), np.inf)
+    np.minimum.at(depth, (uv[:, 1], uv[:, 0]), X[:, 2])
+    depth[np.isinf(depth)] = 0.8  # the table behind
+    mask = depth < 0.8
+    empty = np.zeros((0, 3))
+    return View(empty, empty, empty, depth, mask, np.zeros((K.height, K.width, 3)))
+
+
+def _spin(deg: float) -> np.ndarray:
+    return Rotation.from_rotvec(np.radians(deg) * UP).as_matrix()
+
+
+@pytest.mark.parametrize("off_deg", [120.0, -90.0, 60.0])
+def test_the_goal_silhouette_turns_the_handle_back(off_deg):
+    """A motion that leaves the handle where the goal shows none, while the goal shows it beside the body, is spun
+    about the body's axis to where its handle lands on the goal's mask."""
+    seen0 = _mug(np.random.default_rng(6), 20.0, BASE)
+    truth = Similarity(1.0, _spin(70.0), BASE - _spin(70.0) @ BASE)  # turned 70 deg where it stood
+    wrong = truth.turned_first(_spin(off_deg), BASE)
+    view1 = _goal_view(20.0 + 70.0)
+    found = turn_by_handle(wrong, seen0, UP, view1, K, 0.004)
+    assert rotation_deg(found.R.T @ truth.R) < 10.0
+    np.testing.assert_allclose(found.apply(BASE[None])[0], BASE, atol=0.003)
+    assert turn_by_handle(truth, seen0, UP, view1, K, 0.004) is truth  # the right turn is kept
+
+
+def test_a_goal_that_shows_no_handle_hides_it_behind_the_body():
+    """The goal shows the mug with its handle (half way up) straight behind it, hidden: a motion that leaves the
+    handle beside the body (where the goal shows the table) is spun to hide it, to within the turns that hide it."""
+    ray = BASE - (BASE @ UP) * UP
+    away = ray / np.linalg.norm(ray)  # on the table, straight away from the camera
+
+    def handle_direction(yaw_deg: float) -> np.ndarray:
+        return ON_TABLE @ Rotation.from_euler("z", yaw_deg, degrees=True).as_matrix() @ [1.0, 0.0, 0.0]
+
+    hidden_yaw = max(np.arange(0.0, 360.0, 1.0), key=lambda y: handle_direction(y) @ away)
+    seen0 = _mug(np.random.default_rng(7), 20.0, BASE, bar_height=0.05)
+    beside = Similarity(1.0, _spin(hidden_yaw - 20.0 + 90.0), np.zeros(3))
+    beside = Similarity(1.0, beside.R, BASE - beside.R @ BASE)
+    view1 = _goal_view(hidden_yaw, bar_height=0.05)
+    assert view1.mask.sum() == _goal_view(hidden_yaw, bar_height=0.0).mask.sum()  # the handle does not show
+    found = turn_by_handle(beside, seen0, UP, view1, K, 0.004)
+    handle = found.R @ handle_direction(20.0)
+    assert np.degrees(np.arccos(np.clip(handle @ away, -1, 1))) < 45.0
