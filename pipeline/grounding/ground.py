@@ -29,8 +29,10 @@ from pipeline.grounding.ray_rest import rest_along_ray
 from pipeline.grounding.seen_symmetry import as_seen, off_support, shape_symmetry
 from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.select import fine_tolerance, select_motion
+from pipeline.grounding.tilt import kept_level
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
+from pipeline.grounding.verify import view_consistency
 from pipeline.perception.features import FeatureExtractor
 
 MAX_CONSISTENCY_MATCHES = 1500
@@ -107,6 +109,12 @@ def ground(
         sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine_tolerance(size, cfg))
     if symmetry.kind == "ball" and not hinted:  # no turn shows: its motion is its centre's shift, nothing tilts it
         sim = Similarity(sim.scale, np.eye(3), sim.apply(symmetry.centre[None])[0] - sim.scale * symmetry.centre)
+    elif not hinted:  # a tilt the views do not show better than none is not taken
+
+        def geometry(motion: Similarity) -> float:
+            return view_consistency(motion, view0, view1, K, fine_tolerance(size, cfg)).geometry
+
+        sim = kept_level(sim, up, shape.centre, geometry)
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())
