@@ -85,8 +85,15 @@ def off_support(
 
 def shape_symmetry(points: np.ndarray, normals: np.ndarray, up: np.ndarray | None = None) -> SeenSymmetry:
     """What the seen points' shape alone cannot show: a ball, a body of revolution, a box's equal sides, or none.
-    `up`: the table's normal (camera frame), the axis of a body of revolution standing on it (standing_axis)."""
+    `up`: the table's normal (camera frame), the axis of a body of revolution standing on it (standing_axis).
+    A box's faces are read first: a small box seen on two or three faces also fits slices of a body of revolution
+    within their tolerance (raycast boxes read as cans came out 48 and 178 deg off), while no body of revolution
+    shows rectangular faces with its points on them."""
     P = np.asarray(points, dtype=np.float64)
+    box = box_turns(P, normals)
+    if box is not None:  # at least its three half turns about the face axes
+        centre, turns = box
+        return SeenSymmetry("box", centre, rotations=turns, shape_kind="box")
     revolution = object_symmetry(P)
     if revolution is not None and revolution.axis is None:
         cos = _radial_cosines(P, normals, revolution.centre)
@@ -107,10 +114,6 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray, up: np.ndarray | Non
         open_end = _facing_axis_share(P, normals, revolution.centre, revolution.axis) >= OPEN_INWARD_SHARE
         kind = "revolution_ends_alike" if revolution.ends_alike and not open_end else "revolution"
         return SeenSymmetry(kind, revolution.centre, axis=revolution.axis, shape_kind=kind)
-    box = box_turns(P, normals)
-    if box is not None:  # at least its three half turns about the face axes
-        centre, turns = box
-        return SeenSymmetry("box", centre, rotations=turns, shape_kind="box")
     return SeenSymmetry("none", object_centre(P))
 
 
