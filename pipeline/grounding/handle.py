@@ -21,7 +21,7 @@ from scipy.spatial.transform import Rotation
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.seen_symmetry import handle_azimuth, handle_points, standing_axis, vertical_axis_centre
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import View, depth_tolerance
+from pipeline.grounding.verify import View, depth_tolerance, image_pixels
 
 SPIN_STEP_DEG = 5.0  # the turns about the body's axis tried
 STANDING_DEG = 10.0  # a motion that tilts the vertical further does not leave the body standing
@@ -61,13 +61,10 @@ def turn_by_handle(
     tol_m: float,
 ) -> Similarity:
     """`motion`, spun about the axis of the body standing in the capture (`seen0`: its points above the support and
-    their normals), to where its handle best explains the goal's silhouette (`mask1`); the motion itself unless the
-    capture shows a standing body with a handle, the motion leaves it standing and a turn explains the handle
-    BETTER_BY more.
-
-    Only handle points seen beside the body's outline in the goal image tell: on the goal's mask they are explained,
-    off it contradicted. A handle behind (or in front of) the body tells nothing, so where the goal shows none the
-    turns that hide it tie, and the middle of them is taken."""
+    their normals), to where its handle best explains the goal's silhouette and depth (`view1`); the motion itself
+    unless the capture shows a standing body with a handle, the motion leaves it standing and a turn explains the
+    handle BETTER_BY more (_handle_evidence). A handle hidden behind the body tells nothing, so where the goal shows
+    none the turns that hide it tie, and the middle of them is taken."""
     up = up / np.linalg.norm(up)
     if float(motion.R @ up @ up) < np.cos(np.radians(STANDING_DEG)):
         return motion
@@ -94,32 +91,23 @@ def _handle_evidence(X: np.ndarray, outline: np.ndarray, view1: View, K: CameraI
     """(explained - contradicted) / all, of the handle points X (N, 3): beside the body's outline in the goal image,
     on the goal's mask or off it; over the body, at the goal's depth or well in front of it (a handle turned
     toward the camera where the goal shows the body behind). Behind the body they tell nothing."""
-    u, v, inside = _pixels(X, K)
+    count, X = len(X), X[X[:, 2] > 1e-3]
+    u, v, inside = image_pixels(K, X)
     u, v, z = u[inside], v[inside], X[inside, 2]
     beside, on_mask, d = ~outline[v, u], view1.mask[v, u], view1.depth[v, u]
     with np.errstate(invalid="ignore"):  # NaN depth: no evidence
         at_depth, in_front = np.abs(z - d) <= tol_m, z < d - HANDLE_TOLS * tol_m
     explained = np.where(beside, on_mask, on_mask & at_depth)
     contradicted = np.where(beside, ~on_mask, in_front)
-    return float(explained.sum() - contradicted.sum()) / len(X)
+    return float(explained.sum() - contradicted.sum()) / count
 
 
 def _drawn(X: np.ndarray, K: CameraIntrinsics) -> np.ndarray:
     """(H, W) the pixels points X (N, 3) project onto."""
     image = np.zeros((K.height, K.width), dtype=bool)
-    u, v, inside = _pixels(X, K)
+    u, v, inside = image_pixels(K, X[X[:, 2] > 1e-3])
     image[v[inside], u[inside]] = True
     return image
-
-
-def _pixels(X: np.ndarray, K: CameraIntrinsics) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(u, v, inside): the pixel each point projects to (0 for points behind the camera), and whether it is in the
-    image in front of the camera."""
-    front = X[:, 2] > 1e-3
-    uv = np.zeros((len(X), 2), dtype=int)
-    uv[front] = np.round(K.project(X[front])).astype(int)
-    u, v = uv[:, 0], uv[:, 1]
-    return u, v, front & (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
 
 
 def _disc(radius_px: int) -> np.ndarray:

@@ -123,7 +123,7 @@ def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: fl
     index, X, colour = np.flatnonzero(keep), X[keep], src.chroma[keep]
     if len(X) == 0:
         return _Landing(0, 0, max(carved, 1), found)
-    u, v, inside = _pixels(K, X)
+    u, v, inside = image_pixels(K, X)
     outside_count = int((~inside).sum())
     index, u, v, z, colour = index[inside], u[inside], v[inside], X[inside, 2], colour[inside]
     d = dst.depth[v, u]
@@ -145,11 +145,11 @@ def _in_front_of_observed(dst: View, K: CameraIntrinsics, X: np.ndarray, tol_m: 
     """How many points X (N, 3) lie more than tol_m in front of the surface dst's depth sees along their rays."""
     if len(X) == 0:
         return 0
-    u, v, inside = _pixels(K, X)
+    u, v, inside = image_pixels(K, X)
     return int(np.sum(X[inside, 2] < dst.depth[v[inside], u[inside]] - tol_m))  # NaN depth: no evidence
 
 
-def _pixels(K: CameraIntrinsics, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def image_pixels(K: CameraIntrinsics, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(u, v, inside): the pixel each point (N, 3, in front of the camera) projects to, and whether it is in the
     image."""
     uv = np.round(K.project(X)).astype(int)
