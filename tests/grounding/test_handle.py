@@ -109,3 +109,16 @@ def test_a_goal_that_shows_no_handle_hides_it_behind_the_body():
     found = turn_by_handle(beside, seen0, UP, view1, K, 0.004)
     handle = found.R @ handle_direction(20.0)
     assert np.degrees(np.arccos(np.clip(handle @ away, -1, 1))) < 45.0
+
+
+def test_the_middle_of_tied_turns_is_found_round_the_circle():
+    """Turns tied with the best across the 360 -> 0 deg seam: the middle one is the one at the seam's middle."""
+    from pipeline.grounding.handle import _middle_of_best
+
+    scores = np.full(72, -0.5)
+    scores[[69, 70, 71, 0, 1]] = [0.0, 0.02, 0.0, 0.01, 0.0]
+    assert _middle_of_best(scores) == 71
+    scores = np.full(72, -0.5)
+    scores[10:15] = 0.0
+    assert _middle_of_best(scores) == 12
+    assert _middle_of_best(np.zeros(72)) == 0  # no turn tells: the motion's own
