@@ -19,6 +19,7 @@ from pipeline.grounding.compare import (
     object_centre,
     object_symmetry,
     quarter_turn,
+    spins_about,
     square_footprint_axis,
 )
 from pipeline.grounding.ground import ground
@@ -94,7 +95,7 @@ def expected_hints(
     degrees off, beyond where ICP alone converges from the goal)."""
     if symmetry is not None and symmetry.axis is not None:
         pivot, axis, step = symmetry.centre, symmetry.axis, HINT_SPIN_STEP_DEG
-        turns = [Rotation.from_rotvec(np.radians(d) * axis).as_matrix() for d in np.arange(0.0, 360.0, step)]
+        turns = spins_about(axis, step)
         moves = [(R @ S, R @ (pivot - S @ pivot) + t) for S in turns]  # spun about the axis first, then moved
     else:
         lands = R @ centre + t

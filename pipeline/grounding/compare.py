@@ -143,6 +143,11 @@ def half_turn_across(axis: np.ndarray) -> np.ndarray:
     return Rotation.from_rotvec(np.pi * across / np.linalg.norm(across)).as_matrix()
 
 
+def spins_about(axis: np.ndarray, step_deg: float) -> np.ndarray:
+    """(K, 3, 3) the turns about the unit `axis` by 0, step_deg, 2 step_deg, ... short of a whole turn."""
+    return Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, step_deg))[:, None] * axis).as_matrix()
+
+
 def object_centre(points_camera: np.ndarray) -> np.ndarray:
     """Centre of the visible object points (N, 3) in the camera frame, robust to stray edge pixels."""
     return np.median(points_camera, axis=0)

@@ -101,18 +101,19 @@ def ground(
         if twin.ranked > chosen.ranked:
             chosen = twin
     sim, view_score, hinted = chosen.motion, chosen.score, chosen.hinted
+    fine = fine_tolerance(size, cfg)
     if shape.kind == "none" and not hinted:  # a standing body with a handle: where its handle shows tells its turn
-        sim = turn_by_handle(sim, seen0, up, view1, K, fine_tolerance(size, cfg))
+        sim = turn_by_handle(sim, seen0, up, view1, K, fine)
     views = [(inp.rgb0, inp.mask0, pp.points0), (inp.rgb1, inp.mask1, pp.points1)]
     symmetry, turns_margin = as_seen(shape, views), None
     if shape.kind != "none" and symmetry.kind == "none" and not hinted:  # a print: does it tell the shape's twins?
-        sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine_tolerance(size, cfg))
+        sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine)
     if symmetry.kind == "ball" and not hinted:  # no turn shows: its motion is its centre's shift, nothing tilts it
         sim = Similarity(sim.scale, np.eye(3), sim.apply(symmetry.centre[None])[0] - sim.scale * symmetry.centre)
     elif not hinted:  # a tilt the views do not show better than none is not taken
 
         def geometry(motion: Similarity) -> float:
-            return view_consistency(motion, view0, view1, K, fine_tolerance(size, cfg)).geometry
+            return view_consistency(motion, view0, view1, K, fine).geometry
 
         sim = kept_level(sim, up, shape.centre, geometry)
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))

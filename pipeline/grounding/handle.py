@@ -19,6 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
+from pipeline.grounding.compare import spins_about
 from pipeline.grounding.seen_symmetry import handle_azimuth, handle_points, standing_axis, vertical_axis_centre
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View, depth_tolerance, image_pixels
@@ -77,8 +78,7 @@ def turn_by_handle(
         return motion
     handle, body = seen0[0][parts[0]], seen0[0][parts[1]]
     body = body[:: max(1, len(body) // BODY_POINTS)]
-    spins = Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, SPIN_STEP_DEG))[:, None] * axis).as_matrix()
-    twins = [motion.turned_first(g, centre) for g in spins]
+    twins = [motion.turned_first(g, centre) for g in spins_about(axis, SPIN_STEP_DEG)]
     outline = _drawn(np.vstack([t.apply(body) for t in twins]), K)  # the same whichever way the body is spun
     outline = cv2.dilate(outline.astype(np.uint8), _disc(OUTLINE_GROW_PX)).astype(bool)
     tol_m = depth_tolerance(tol_m, view1)

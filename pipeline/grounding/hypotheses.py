@@ -24,7 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import ball_centre, basis_across
-from pipeline.grounding.compare import half_turn_across
+from pipeline.grounding.compare import half_turn_across, spins_about
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View, depth_tolerance
@@ -275,7 +275,7 @@ def end_for_end(motion: Similarity, shape: SeenSymmetry, points0: np.ndarray, po
     a = shape.axis / np.linalg.norm(shape.axis)
     middle = shape.centre + a * _mid((points0 - shape.centre) @ a)
     a1 = motion.R @ a  # the axis where the goal has it
-    spins = Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, END_FOR_END_SPIN_DEG))[:, None] * a).as_matrix()
+    spins = spins_about(a, END_FOR_END_SPIN_DEG)
     out = []
     for H in spins @ half_turn_across(a):
         twin = motion.turned_first(H, middle)

@@ -17,7 +17,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
-from pipeline.grounding.compare import half_turn_across, rotation_deg
+from pipeline.grounding.compare import half_turn_across, rotation_deg, spins_about
 from pipeline.grounding.hypotheses import AXIS_MAPS
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
@@ -40,7 +40,7 @@ def shape_turns(shape: SeenSymmetry) -> np.ndarray:
     if shape.axis is None:
         return np.eye(3)[None]
     a = shape.axis / np.linalg.norm(shape.axis)
-    spins = Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, SPIN_STEP_DEG))[:, None] * a).as_matrix()
+    spins = spins_about(a, SPIN_STEP_DEG)
     if shape.kind != "revolution_ends_alike":
         return spins
     return np.concatenate([spins, spins @ half_turn_across(a)])
