@@ -33,6 +33,7 @@ from pipeline.grounding.tilt import kept_level
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
 from pipeline.grounding.verify import view_consistency
+from pipeline.grounding.workers import one_thread_each, workers
 from pipeline.perception.features import FeatureExtractor
 
 MAX_CONSISTENCY_MATCHES = 1500
@@ -49,7 +50,17 @@ def ground(
 ) -> ObjectMotion:
     """ObjectMotion (x_goal = R x_init + t, camera frame) or a refusal with its reason. `hints`: motions known to
     be likely (select_motion), taken when the views cannot tell them from the best found."""
-    cfg = config or GroundingConfig()
+    with one_thread_each():  # its steps run side by side on the cores instead (workers.py)
+        return _ground(inp, features, config or GroundingConfig(), T_base_camera, hints)
+
+
+def _ground(
+    inp: GroundingInput,
+    features: FeatureExtractor,
+    cfg: GroundingConfig,
+    T_base_camera: np.ndarray | None,
+    hints: Sequence[Similarity],
+) -> ObjectMotion:
     if cfg.work_width_px is not None and cfg.work_width_px < inp.intrinsics.width:
         inp = inp.resized(cfg.work_width_px)
     K = inp.intrinsics
@@ -67,32 +78,20 @@ def ground(
             **common,
         )
     rng = np.random.default_rng(cfg.seed)
-    src = np.argwhere(pp.valid0)[:, ::-1]
-    if len(src) > cfg.max_source_pixels:
-        src = src[rng.choice(len(src), cfg.max_source_pixels, replace=False)]
-    dst = np.argwhere(pp.valid1)[:, ::-1]
-    m = match_pixels(
-        features,
-        inp.rgb0,
-        src,
-        inp.rgb1,
-        dst,
-        pp.points0,
-        pp.points1,
-        mutual=cfg.mutual,
-        min_similarity=cfg.min_similarity,
-    )
-    common["matches"] = len(m.src_px)
     threshold = max(cfg.inlier_min_m, cfg.inlier_rel * size)
-    fits = _feature_hypotheses(pp.points0, pp.points1, m, size, threshold, cfg, rng)
     background = ~(inp.mask0 | inp.mask1)
     up = _up_direction(pp.points0[background & np.isfinite(pp.depth0)], T_base_camera, rng)
-    sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
-    # each view's points above what it stands on: the object's own, without the support a mask bleeds onto
-    seen0 = off_support(view0.cloud, view0.normals, pp.points0, inp.mask0, up)
-    seen1 = off_support(view1.cloud, view1.normals, pp.points1, inp.mask1, up)
-    on_table = footprint_hypotheses(seen0[0], seen1[0], up) + handle_hypotheses(seen0, seen1, up)  # turns about up
-    candidates = fits + face_hypotheses(view0, view1) + on_table + ball_hypotheses(view0, view1) + sweep
+    with workers(1) as pool:  # the features' search alongside the geometric hypotheses
+        by_features = pool.submit(_by_features, inp, pp, features, size, threshold, cfg, rng)
+        sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
+        # each view's points above what it stands on: the object's own, without the support a mask bleeds onto
+        seen0 = off_support(view0.cloud, view0.normals, pp.points0, inp.mask0, up)
+        seen1 = off_support(view1.cloud, view1.normals, pp.points1, inp.mask1, up)
+        on_table = footprint_hypotheses(seen0[0], seen1[0], up) + handle_hypotheses(seen0, seen1, up)  # about up
+        geometric = face_hypotheses(view0, view1) + on_table + ball_hypotheses(view0, view1) + sweep
+        m, fits = by_features.result()
+    common["matches"] = len(m.src_px)
+    candidates = fits + geometric
     chosen = select_motion(candidates, view0, view1, K, size, cfg, hints)
     shape = shape_symmetry(*seen0, up)
     twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)
@@ -219,6 +218,34 @@ def _ground_hinged(inp: GroundingInput, pp: Prepared, cfg: GroundingConfig, comm
         },
         **common,
     )
+
+
+def _by_features(
+    inp: GroundingInput,
+    pp: Prepared,
+    features: FeatureExtractor,
+    size: float,
+    threshold: float,
+    cfg: GroundingConfig,
+    rng: np.random.Generator,
+) -> tuple[Matches, list[Similarity]]:
+    """The feature matches between the two objects' pixels and the motions they support (_feature_hypotheses)."""
+    src = np.argwhere(pp.valid0)[:, ::-1]
+    if len(src) > cfg.max_source_pixels:
+        src = src[rng.choice(len(src), cfg.max_source_pixels, replace=False)]
+    dst = np.argwhere(pp.valid1)[:, ::-1]
+    m = match_pixels(
+        features,
+        inp.rgb0,
+        src,
+        inp.rgb1,
+        dst,
+        pp.points0,
+        pp.points1,
+        mutual=cfg.mutual,
+        min_similarity=cfg.min_similarity,
+    )
+    return m, _feature_hypotheses(pp.points0, pp.points1, m, size, threshold, cfg, rng)
 
 
 def _feature_hypotheses(

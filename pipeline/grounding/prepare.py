@@ -25,6 +25,7 @@ from pipeline.grounding.depth_align import (
 )
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.verify import View, chromaticity, make_view
+from pipeline.grounding.workers import workers
 
 SENSOR_NOISE_REL = 0.0015  # a depth camera's per-pixel noise / depth: a model's is smoothed down to it ...
 MAX_SMOOTH_PX = 3.0  # ... over at most this many pixels (sigma); under MIN_SMOOTH_PX it is left as it is
@@ -186,18 +187,14 @@ def prepare(
 ) -> Prepared | ObjectMotion:
     """The two views (for an input already at its working size), or the refusal, with its reason, when the goal
     depth does not fit the scene or either view has too few object pixels with depth."""
-    aligned = align_goal_depth(inp, cfg, T_base_camera)
-    if isinstance(aligned, ObjectMotion):
-        return aligned
-    depth0, depth1, align = aligned
-    error = 0.0
     background = ~(inp.mask0 | inp.mask1)
-    if not inp.depth1_measured:  # a model's depth
-        clear = away_from_outline(background, EDGE_BAND_PX)
-        sigma = smoothing_px(pixel_noise(depth1, clear))
-        error = goal_depth_error(depth0, depth1, clear, sigma)
-        if sigma > 0:
-            depth1 = smooth_inside(depth1, inp.mask1, sigma)
+    with workers(1) as pool:  # the colours taken out alongside the depth
+        colours = pool.submit(_colours, inp, background, cfg.seed)
+        prepared = _prepare_depth(inp, cfg, background, T_base_camera)
+        chroma0, rgb1, chroma1 = colours.result()
+    if isinstance(prepared, ObjectMotion):
+        return prepared
+    depth0, depth1, error, align = prepared
     K = inp.intrinsics
     points0, points1 = K.unproject_depth_image(depth0), K.unproject_depth_image(depth1)
     valid0 = inp.mask0 & np.isfinite(depth0)
@@ -210,11 +207,33 @@ def prepare(
         )
     cloud0 = points0[valid0]
     size = object_size(cloud0)
-    chroma0 = chromaticity(inp.rgb0)
-    rgb1 = match_colours(inp.rgb1, inp.rgb0, background, cfg.seed)
-    chroma1 = chromaticity(rgb1)
     voxel = max(cfg.icp_voxel_m, size / 40)
     view0 = make_view(cloud0, chroma0[valid0], depth0, inp.mask0, chroma0, voxel)
     view1 = make_view(points1[valid1], chroma1[valid1], depth1, inp.mask1, chroma1, voxel, error)
     hues = hue_overlap(inp.rgb0, inp.mask0, rgb1, inp.mask1)
     return Prepared(depth0, depth1, align, points0, points1, valid0, valid1, size, view0, view1, hues)
+
+
+def _colours(inp: GroundingInput, background: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(the capture's chromaticity, the goal image with the editor's colour change undone, its chromaticity)."""
+    rgb1 = match_colours(inp.rgb1, inp.rgb0, background, seed)
+    return chromaticity(inp.rgb0), rgb1, chromaticity(rgb1)
+
+
+def _prepare_depth(
+    inp: GroundingInput, cfg: GroundingConfig, background: np.ndarray, T_base_camera: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, float, DepthAlignment] | ObjectMotion:
+    """(the capture's depth, the goal's aligned to it and smoothed inside the object, the goal depth's standard error
+    [m], the alignment), or the refusal when the goal depth does not fit the scene."""
+    aligned = align_goal_depth(inp, cfg, T_base_camera)
+    if isinstance(aligned, ObjectMotion):
+        return aligned
+    depth0, depth1, align = aligned
+    error = 0.0
+    if not inp.depth1_measured:  # a model's depth
+        clear = away_from_outline(background, EDGE_BAND_PX)
+        sigma = smoothing_px(pixel_noise(depth1, clear))
+        error = goal_depth_error(depth0, depth1, clear, sigma)
+        if sigma > 0:
+            depth1 = smooth_inside(depth1, inp.mask1, sigma)
+    return depth0, depth1, error, align

@@ -15,6 +15,7 @@ from pipeline.grounding.refine import IcpTarget
 from pipeline.grounding.types import GroundingConfig
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import Agreement, View, view_consistency
+from pipeline.grounding.workers import workers
 
 MAX_ICP_TURN_DEG = 15.0  # ICP may polish a hypothesis, not replace it
 MAX_ICP_SHIFT_REL = 0.25
@@ -75,16 +76,19 @@ def select_motion(
 
     def scored(hypotheses: Sequence[Similarity], keep: bool = False) -> list[Selected]:
         """Each hypothesis the clouds meet on (every one with `keep`, unpolished where they do not), refined and
-        checked at the fine tolerance."""
-        out = []
-        for hypothesis in hypotheses:
+        checked at the fine tolerance; two at a time (ICP and the tree searches leave the interpreter free)."""
+
+        def one(hypothesis: Similarity) -> Selected | None:
             refined = _refine(hypothesis, view0.cloud, target, size, cfg) if target else (hypothesis, 1.0)
             if refined is None and keep:
                 refined = (hypothesis, 0.0)
-            if refined is not None:
-                sim, fitness = refined
-                out.append(Selected(sim, view_consistency(sim, view0, view1, K, fine), fitness))
-        return out
+            if refined is None:
+                return None
+            sim, fitness = refined
+            return Selected(sim, view_consistency(sim, view0, view1, K, fine), fitness)
+
+        with workers() as pool:
+            return [s for s in pool.map(one, hypotheses) if s is not None]
 
     found, hinted = scored(ranked), scored(hints, keep=True)
     best = max(found, key=lambda s: s.ranked) if found else None
