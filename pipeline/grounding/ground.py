@@ -89,11 +89,11 @@ def _ground(
         seen1 = off_support(view1.cloud, view1.normals, pp.points1, inp.mask1, up)
         on_table = footprint_hypotheses(seen0[0], seen1[0], up) + handle_hypotheses(seen0, seen1, up)  # about up
         geometric = face_hypotheses(view0, view1) + on_table + ball_hypotheses(view0, view1) + sweep
+        shape = shape_symmetry(*seen0, up)  # what the capture's shape cannot show
         m, fits = by_features.result()
     common["matches"] = len(m.src_px)
     candidates = fits + geometric
     chosen = select_motion(candidates, view0, view1, K, size, cfg, hints)
-    shape = shape_symmetry(*seen0, up)
     twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)
     if twins:  # the winner turned end for end, refined and scored alike: taken where it explains the views better
         twin = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
