@@ -3,8 +3,12 @@
 On uniform or symmetric objects feature matches are ambiguous and RANSAC may never sample the right motion.
 Objects on a table mostly turn about the table normal and sometimes tip over, so a sweep of rotations
 yaw(a) . tilt(theta) . yaw(b) about the normal, each with the translation that aligns the cloud centroids,
-covers the likely motions at a coarse step. A vectorised render-and-compare check (soft silhouette, depth and
-colour agreement at a coarse tolerance, both ways) keeps the few worth refining.
+covers the likely motions at a coarse step. A vectorised render-and-compare check (soft silhouette and depth
+agreement at a coarse tolerance, both ways, colour only weighting it as verify's tie-break does) keeps the few worth
+refining. Colour as a factor buried the truth's neighbours: a step off the truth, with the centroids of a model's
+distorted goal cloud centimetres off, lands a print's colours elsewhere (a printed bowl turned in place: no level turn
+scored over 0.15, tilted ones 0.36, and the best eight hypotheses tilted it 30-60 deg; the level turns found, which
+turn of the print is right is read afterwards, seen_turns.py).
 
 A ball shows no turn, and where it went is the centre of the sphere its seen points lie on: the centres fitted
 in both views give its shift however little of it the goal shows (a ball put into a bowl shows its top over the
@@ -27,7 +31,7 @@ from pipeline.contact.symmetry import ball_centre, basis_across
 from pipeline.grounding.compare import half_turn_across, spins_about
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import View, depth_tolerance
+from pipeline.grounding.verify import COLOUR_WEIGHT, View, depth_tolerance
 
 MAX_POINTS = 120  # per cloud: a coarse check needs the shape, not every point
 CHROMA_SIGMA = 0.08
@@ -87,8 +91,8 @@ def _agreement(
     K: CameraIntrinsics,
     tol_m: float,
 ) -> np.ndarray:
-    """(M, N, 3) moved points -> mean soft agreement (silhouette x depth x colour) of the camera-facing, not
-    occluded ones with the other view."""
+    """(M, N, 3) moved points -> mean soft agreement (silhouette x depth, colour weighted in by COLOUR_WEIGHT) of the
+    camera-facing, not occluded ones with the other view."""
     facing = (normals * X).sum(axis=-1) < 0
     z = np.maximum(X[..., 2], 1e-3)
     u = np.round(K.fx * X[..., 0] / z + K.cx).astype(int)
@@ -100,7 +104,8 @@ def _agreement(
     d = np.where(seen, d, z)
     counted = facing & (~inside | ~seen | (z < d + tol_m))  # points behind the observed surface: no evidence
     colour = np.exp(-np.sum((other.chroma_image[v, u] - chroma[None]) ** 2, axis=-1) / CHROMA_SIGMA**2)
-    hit = inside * closeness[v, u] * np.exp(-(((z - d) / tol_m) ** 2)) * colour
+    geometry = inside * closeness[v, u] * np.exp(-(((z - d) / tol_m) ** 2))
+    hit = geometry * (1.0 - COLOUR_WEIGHT + COLOUR_WEIGHT * colour)
     return (hit * counted).sum(axis=1) / np.maximum(counted.sum(axis=1), 1)
 
 
