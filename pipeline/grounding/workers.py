@@ -4,7 +4,7 @@ ICP, tree searches, torch and numpy's larger operations leave the interpreter fr
 two cores. The native libraries' own pools would then oversubscribe the cores: Open3D's ICP on every core inside
 each of two workers, OpenBLAS's threads on small matrices beside them. So grounding keeps each library to one
 thread while it runs (one_thread_each) and each worker keeps OpenMP to one thread of its own (a new thread's OpenMP
-count starts from the process default, whatever its caller set). Same answers; a raycast pair 380 -> 300 ms on a
+count starts from the process default, whatever its caller set). Same answers; a raycast pair about 390 -> 280 ms on a
 2-core machine (bench/grounding.py)."""
 
 from __future__ import annotations
@@ -24,7 +24,9 @@ def _controller() -> ThreadpoolController:
 
 
 def one_thread_each():
-    """Context manager: every native pool (OpenMP for the calling thread, BLAS for the process) at one thread."""
+    """Context manager: every native pool (OpenMP for the calling thread, BLAS for the process) at one thread. BLAS's
+    count is the process's: two ground() calls overlapping in threads may leave it at one (slower, never wrong); the
+    runtime grounds on one stage thread and campaigns in processes."""
     return _controller().limit(limits=1)
 
 
