@@ -14,7 +14,6 @@ mask wherever it shows beside the body.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -23,6 +22,7 @@ from pipeline.grounding.compare import spins_about
 from pipeline.grounding.seen_symmetry import handle_azimuth, handle_points, standing_axis, vertical_axis_centre
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View, depth_tolerance, image_pixels
+from pipeline.perception.segmenter import grow
 
 SPIN_STEP_DEG = 5.0  # the turns about the body's axis tried
 STANDING_DEG = 10.0  # a motion that tilts the vertical further does not leave the body standing
@@ -80,7 +80,7 @@ def turn_by_handle(
     body = body[:: max(1, len(body) // BODY_POINTS)]
     twins = [motion.turned_first(g, centre) for g in spins_about(axis, SPIN_STEP_DEG)]
     outline = _drawn(np.vstack([t.apply(body) for t in twins]), K)  # the same whichever way the body is spun
-    outline = cv2.dilate(outline.astype(np.uint8), _disc(OUTLINE_GROW_PX)).astype(bool)
+    outline = grow(outline, OUTLINE_GROW_PX)
     tol_m = depth_tolerance(tol_m, view1)
     scores = np.array([_handle_evidence(t.apply(handle), outline, view1, K, tol_m) for t in twins])
     best = _middle_of_best(scores)
@@ -108,10 +108,6 @@ def _drawn(X: np.ndarray, K: CameraIntrinsics) -> np.ndarray:
     u, v, inside = image_pixels(K, X[X[:, 2] > 1e-3])
     image[v[inside], u[inside]] = True
     return image
-
-
-def _disc(radius_px: int) -> np.ndarray:
-    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius_px + 1,) * 2)
 
 
 def _middle_of_best(scores: np.ndarray) -> int:

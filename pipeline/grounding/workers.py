@@ -10,6 +10,7 @@ count starts from the process default, whatever its caller set). Same answers; a
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import AbstractContextManager
 from functools import cache
 
 from threadpoolctl import ThreadpoolController
@@ -23,7 +24,7 @@ def _controller() -> ThreadpoolController:
     return ThreadpoolController()
 
 
-def one_thread_each():
+def one_thread_each() -> AbstractContextManager:
     """Context manager: every native pool (OpenMP for the calling thread, BLAS for the process) at one thread. BLAS's
     count is the process's: two ground() calls overlapping in threads may leave it at one (slower, never wrong); the
     runtime grounds on one stage thread and campaigns in processes."""

@@ -66,6 +66,14 @@ def attached_to(found: list[Detection], mask_part: np.ndarray) -> list[Detection
     return [d for d, c in zip(found, contact, strict=True) if c == best] if best > 0 else found
 
 
+def grow(mask: np.ndarray, px: int) -> np.ndarray:
+    """The mask grown by a disc of `px` pixels (a copy where px <= 0)."""
+    if px <= 0:
+        return mask.copy()
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * px + 1, 2 * px + 1))
+    return cv2.dilate(mask.astype(np.uint8), k).astype(bool)
+
+
 def box_of(mask: np.ndarray) -> tuple[int, int, int, int]:
     v, u = np.nonzero(mask)
     if u.size == 0:

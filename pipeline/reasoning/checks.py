@@ -39,13 +39,6 @@ def resize_to(rgb: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, list
     return rgb, notes
 
 
-def grow(mask: np.ndarray, px: int) -> np.ndarray:
-    if px <= 0:
-        return mask.copy()
-    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * px + 1, 2 * px + 1))
-    return cv2.dilate(mask.astype(np.uint8), k).astype(bool)
-
-
 def estimate_framing(rgb_init: np.ndarray, rgb_cand: np.ndarray, background: np.ndarray) -> Framing | None:
     """Affine initial -> candidate from ORB matches on background pixels; None if too few consistent matches."""
     h, w = background.shape

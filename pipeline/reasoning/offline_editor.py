@@ -28,8 +28,7 @@ from scipy.spatial import ConvexHull
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.articulation import HingeNotFound, find_hinge
 from pipeline.perception.depth import OfflineDepthEstimator, RelativeDepth
-from pipeline.perception.segmenter import SegmentationError, Segmenter, apart_from, attached_to, matches
-from pipeline.reasoning.checks import grow
+from pipeline.perception.segmenter import SegmentationError, Segmenter, apart_from, attached_to, grow, matches
 from pipeline.reasoning.instruction import Instruction, InstructionError, lid_of, parse_instruction
 from pipeline.reasoning.interfaces import ImageEditor
 from pipeline.reasoning.placement import PlacementConfig, Table, spot_beside

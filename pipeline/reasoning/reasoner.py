@@ -19,7 +19,7 @@ import numpy as np
 from drivers.types import RGBDFrame
 from pipeline.config import PipelineConfig
 from pipeline.perception.depth import DepthEstimationError, DepthEstimator
-from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, attached_to, matches
+from pipeline.perception.segmenter import Detection, SegmentationError, Segmenter, attached_to, grow, matches
 from pipeline.reasoning import checks, group
 from pipeline.reasoning.instruction import with_colour_found
 from pipeline.reasoning.interfaces import ImageEditor, TextVLM
@@ -273,7 +273,7 @@ class Reasoner:
         lap("segment", t0)
         t0 = time.perf_counter()
         others = np.any([d.mask for d in found], axis=0) if found else np.zeros_like(mask_init)
-        framing = checks.estimate_framing(rgb, cand, ~checks.grow(mask_init | others, cfg.mask_margin_px))
+        framing = checks.estimate_framing(rgb, cand, ~grow(mask_init | others, cfg.mask_margin_px))
         if framing is None:
             problems.append("framing could not be verified: too few consistent background features")
         elif checks.framing_changed(framing, cfg):
@@ -300,7 +300,7 @@ class Reasoner:
             problems += checks.target_count_problems(found, enh.target)
             mask_goal = found[0].mask if len(found) == 1 else None
         if mask_goal is not None:
-            exclude = checks.grow(mask_init | mask_goal, cfg.mask_margin_px)
+            exclude = grow(mask_init | mask_goal, cfg.mask_margin_px)
             problems += checks.background_problems(rgb, cand, exclude, cfg)
             problems += checks.target_motion_problems(rgb, cand, mask_init, mask_goal, cfg)
         it.checks.extend(problems)
