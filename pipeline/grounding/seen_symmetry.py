@@ -99,10 +99,12 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray, up: np.ndarray | Non
         cos = _radial_cosines(P, normals, revolution.centre)
         if np.mean(cos > np.cos(np.radians(BALL_NORMAL_DEG))) >= BALL_NORMAL_SHARE:
             return SeenSymmetry("ball", revolution.centre, shape_kind="ball")
-        if np.mean(cos < 0.0) < BOWL_INWARD_SHARE:
-            return SeenSymmetry("none", object_centre(P))
-        axis = revolution_axis(P)  # a bowl's inside: on a sphere, facing in, and it may go round an axis
-        revolution = None if axis is None else Symmetry(axis.point, axis.direction, axis.ends_alike)
+        revolution = None  # a cap of a sphere seen from outside: round only where it stands round the vertical
+        if np.mean(cos < 0.0) >= BOWL_INWARD_SHARE:
+            axis = revolution_axis(P)  # a bowl's inside: on a sphere, facing in, and it may go round an axis
+            revolution = None if axis is None else Symmetry(axis.point, axis.direction, axis.ends_alike)
+    if revolution is None and up is not None:
+        revolution = _standing_round(P, normals, up)
     if revolution is not None and revolution.axis is not None and up is not None:
         fitted, revolution = revolution, on_its_base(P, normals, up, revolution)
         if revolution is None:  # round the vertical, but for a handle
@@ -115,6 +117,16 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray, up: np.ndarray | Non
         kind = "revolution_ends_alike" if revolution.ends_alike and not open_end else "revolution"
         return SeenSymmetry(kind, revolution.centre, axis=revolution.axis, shape_kind=kind)
     return SeenSymmetry("none", object_centre(P))
+
+
+def _standing_round(points: np.ndarray, normals: np.ndarray, up: np.ndarray) -> Symmetry | None:
+    """A body of revolution standing on its base that the points alone fit no axis to (a can seen on a few faint
+    slices, a bowl's outside on a sphere): its normals go round the vertical and its outline is round. Its ends
+    are not read (not alike: the fewer twins, the safer)."""
+    standing = standing_axis(points, normals, up)
+    if standing is None or not _round_outline(points, *standing):
+        return None
+    return Symmetry(standing[0], standing[1], False)
 
 
 def on_its_base(points: np.ndarray, normals: np.ndarray, up: np.ndarray, revolution: Symmetry) -> Symmetry | None:
