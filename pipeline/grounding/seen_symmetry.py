@@ -13,6 +13,9 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from pipeline.contact.symmetry import basis_across, revolution_axis
 from pipeline.grounding.compare import SAME_SIDE_M, Symmetry, object_centre, object_symmetry
@@ -43,6 +46,10 @@ BOX_FACE_FILL = 0.88  # each seen face of MIN_FACE_POINTS fills its rectangle th
 MIN_FACE_POINTS = 100
 SUPPORT_RING_PX = (4, 12)  # the ring around the mask that shows what the object stands on (inner, outer)
 SUPPORT_CLEARANCE_M = 0.005
+# a part this far from the rest of the seen points (through any chain of them) is not on the object: what the mask
+# bled onto in front of or behind it (another bottle, the table far behind its outline): a handle's seen points
+# continue from the body's within it
+PART_GAP_M = 0.02
 # a print: neighbouring pixels PRINT_STEP_PX apart on one smooth patch of surface (normals within
 # SAME_NORMAL_DEG, depths within SAME_SURFACE_M) that differ in log brightness or chromaticity beyond
 # PRINT_CONTRAST (3.5 times what a sensor's noise of 2-3 levels in 255 leaves on a dark object after PRINT_BLUR_PX),
@@ -69,10 +76,12 @@ def as_seen(shape: SeenSymmetry, views: list[tuple[np.ndarray, np.ndarray, np.nd
 def off_support(
     points: np.ndarray, normals: np.ndarray, point_map: np.ndarray, mask: np.ndarray, up: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The object's points (and normals) more than SUPPORT_CLEARANCE_M above what it stands on: a segmenter's mask
-    bleeds a few pixels onto the table around the object, and those points break any shape test. The support's
-    height is the median of the pixels in a ring SUPPORT_RING_PX around the mask (point_map: the view's, NaN where
-    unknown; up: the table's normal, camera frame). All points where too few are left or the ring shows nothing."""
+    """The object's points (and normals) more than SUPPORT_CLEARANCE_M above what it stands on, and on its largest
+    part (PART_GAP_M): a segmenter's mask bleeds a few pixels onto the table around the object and onto whatever
+    stands in front of or behind it, and those points break any shape test (a bottle whose mask reached another in
+    front of it read as having a handle). The support's height is the median of the pixels in a ring
+    SUPPORT_RING_PX around the mask (point_map: the view's, NaN where unknown; up: the table's normal, camera
+    frame). All points where too few are left or the ring shows nothing."""
     near = cv2.dilate(mask.astype(np.uint8), np.ones((2 * SUPPORT_RING_PX[1] + 1,) * 2, np.uint8)).astype(bool)
     inner = cv2.dilate(mask.astype(np.uint8), np.ones((2 * SUPPORT_RING_PX[0] + 1,) * 2, np.uint8)).astype(bool)
     ring = point_map[near & ~inner]
@@ -80,7 +89,20 @@ def off_support(
     if len(ring) < MIN_FACE_POINTS:
         return points, normals
     keep = points @ up - float(np.median(ring @ up)) > SUPPORT_CLEARANCE_M
+    if keep.sum() < MIN_FACE_POINTS:
+        return points, normals
+    keep[keep] = _largest_part(points[keep])
     return (points[keep], normals[keep]) if keep.sum() >= MIN_FACE_POINTS else (points, normals)
+
+
+def _largest_part(points: np.ndarray) -> np.ndarray:
+    """Which points (N, 3) belong to the largest part whose points each lie within PART_GAP_M of another's."""
+    tree = cKDTree(points)
+    pairs = tree.query_pairs(PART_GAP_M, output_type="ndarray")
+    n = len(points)
+    links = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, part = connected_components(links, directed=False)
+    return part == np.bincount(part).argmax()
 
 
 def shape_symmetry(points: np.ndarray, normals: np.ndarray, up: np.ndarray | None = None) -> SeenSymmetry:
