@@ -320,8 +320,10 @@ def _same_sides(sides: np.ndarray) -> np.ndarray:
 
 
 def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
-    """Whether each face seen (points whose normal is along a frame axis) fills its rectangle in the face's plane
-    (BOX_FACE_FILL): a disc, a pan's bottom, a can's cap do not."""
+    """Whether each face seen (points whose normal is along a frame axis) fills the smallest rectangle round it in the
+    face's plane (BOX_FACE_FILL): a disc, a pan's bottom, a can's cap do not. The smallest, not the one along the
+    frame's other axes: the frame, read from noisy normals, can sit a few degrees off a face's edges, and a face
+    twice as long as it is wide then fills under 0.85 of the frame's rectangle (raycast boxes read as none)."""
     from scipy.spatial import ConvexHull, QhullError
 
     seen = 0
@@ -330,7 +332,8 @@ def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
         if face.sum() < MIN_FACE_POINTS:  # a few dozen points' hull falls short of their rectangle
             continue
         flat = np.delete(local[face], k, axis=1)
-        area = float(np.prod(np.ptp(flat, axis=0)))
+        (_, _), (w, h), _ = cv2.minAreaRect(flat.astype(np.float32))
+        area = float(w * h)
         try:
             hull = float(ConvexHull(flat).volume)
         except QhullError:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.seen_symmetry import as_seen, shape_symmetry, shows_print
+from pipeline.grounding.seen_symmetry import _rectangular_faces, as_seen, shape_symmetry, shows_print
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # bench/ is not an installed package
 
@@ -299,6 +299,27 @@ def test_what_a_mask_bled_onto_is_no_handle(seed, index):
     points, normals, up, kind = _first_view(seed, index)
     assert kind in ("bottle", "cylinder")
     assert shape_symmetry(points, normals, up).kind.startswith("revolution")
+
+
+@pytest.mark.parametrize("seed, index", [(9001, 8), (77, 16)])
+def test_a_box_whose_faces_sit_askew_in_the_frame_its_normals_give_is_a_box(seed, index):
+    """Raycast boxes whose face frame, read from their normals, sits a few degrees off a face's edges: the face fills
+    the rectangle along the frame's axes by under 0.88, its own smallest rectangle by more."""
+    points, normals, up, kind = _first_view(seed, index)
+    assert kind == "box"
+    assert shape_symmetry(points, normals, up).kind == "box"
+
+
+def test_a_face_fills_its_smallest_rectangle_whichever_way_it_lies_and_a_disc_does_not():
+    rng = np.random.default_rng(8)
+    flat = rng.uniform([0.0, 0.0], [0.06, 0.03], (600, 2))
+    askew = flat @ Rotation.from_euler("z", 6, degrees=True).as_matrix()[:2, :2].T  # 6 deg off the frame's axes
+    disc = rng.normal(size=(600, 2))
+    disc = 0.03 * disc / np.linalg.norm(disc, axis=1, keepdims=True) * np.sqrt(rng.random((600, 1)))
+    for face, is_rectangle in ((flat, True), (askew, True), (disc, False)):
+        local = np.column_stack([face, np.zeros(len(face))])  # the face in the frame's xy plane, its normal z
+        normals = np.tile([0.0, 0.0, 1.0], (len(face), 1))
+        assert _rectangular_faces(local, normals) == is_rectangle
 
 
 @pytest.mark.parametrize("seed, index", [(9001, 16), (31, 8)])
