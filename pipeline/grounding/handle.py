@@ -20,12 +20,13 @@ from scipy.spatial.transform import Rotation
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.compare import spins_about
 from pipeline.grounding.seen_symmetry import handle_azimuth, handle_points, standing_axis, vertical_axis_centre
+from pipeline.grounding.tilt import level_twin
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View, depth_tolerance, image_pixels
 from pipeline.perception.segmenter import grow
 
 SPIN_STEP_DEG = 5.0  # the turns about the body's axis tried
-STANDING_DEG = 10.0  # a motion that tilts the vertical further does not leave the body standing
+STANDING_DEG = 10.0  # a motion that tilts the vertical further is spun on its level twin (tilt.level_twin)
 MIN_HANDLE_POINTS = 10
 BODY_POINTS = 300  # of the body's seen points, swept round its axis to draw its outline in the goal image
 OUTLINE_GROW_PX = 3  # the swept points' gaps closed, and a mask's outline a few pixels off
@@ -64,21 +65,26 @@ def turn_by_handle(
     """`motion`, spun about the axis of the body standing in the capture (`seen0`: its points above the support and
     their normals), to where its handle best explains the goal's silhouette and depth (`view1`); the motion itself
     unless the capture shows a standing body with a handle, the motion leaves it standing and a turn explains the
-    handle BETTER_BY more (_handle_evidence). A handle hidden behind the body tells nothing, so where the goal shows
-    none the turns that hide it tie, and the middle of them is taken."""
+    handle BETTER_BY more (_handle_evidence). A motion that leans the body by more than STANDING_DEG (ICP on a
+    model's bled goal depth leaned a mug 12-28 deg, and its handle was never read) is spun on its level twin, which
+    a turn must beat by as much; tipped further than the twin allows, it is left alone. A handle hidden behind the
+    body tells nothing, so where the goal shows none the turns that hide it tie, and the middle of them is taken."""
     up = up / np.linalg.norm(up)
-    if float(motion.R @ up @ up) < np.cos(np.radians(STANDING_DEG)):
-        return motion
     standing = standing_axis(*seen0, up)
     if standing is None:
         return motion
     centre, axis = standing
+    base = motion
+    if float(motion.R @ up @ up) < np.cos(np.radians(STANDING_DEG)):  # leaning: its level twin is spun
+        base = level_twin(motion, up, centre)
+        if base is None:  # tipped over: no standing body
+            return motion
     parts = handle_points(seen0[0], centre, axis)
     if parts is None or parts[0].sum() < MIN_HANDLE_POINTS:
         return motion
     handle, body = seen0[0][parts[0]], seen0[0][parts[1]]
     body = body[:: max(1, len(body) // BODY_POINTS)]
-    twins = [motion.turned_first(g, centre) for g in spins_about(axis, SPIN_STEP_DEG)]
+    twins = [base.turned_first(g, centre) for g in spins_about(axis, SPIN_STEP_DEG)]
     outline = _drawn(np.vstack([t.apply(body) for t in twins]), K)  # the same whichever way the body is spun
     outline = grow(outline, OUTLINE_GROW_PX)
     tol_m = depth_tolerance(tol_m, view1)

@@ -91,6 +91,24 @@ def test_the_goal_silhouette_turns_the_handle_back(off_deg):
     assert turn_by_handle(truth, seen0, UP, view1, K, 0.004) is truth  # the right turn is kept
 
 
+@pytest.mark.parametrize("lean_deg", [15.0, 25.0])
+def test_a_motion_leaning_the_body_is_spun_on_its_level_twin(lean_deg):
+    """A wrong turn that ICP also leaned (a model's bled goal depth): the level twin's handle is spun to where the goal
+    shows it, the answer standing; a motion tipped over is left alone."""
+    seen0 = _mug(np.random.default_rng(6), 20.0, BASE)
+    truth = Similarity(1.0, _spin(70.0), BASE - _spin(70.0) @ BASE)
+    across = np.cross(UP, [1.0, 0.0, 0.0])
+    across /= np.linalg.norm(across)
+    lean = Rotation.from_rotvec(np.radians(lean_deg) * across).as_matrix()
+    middle = BASE + 0.05 * UP  # ICP leans it about the middle of its points
+    wrong = truth.turned_first(_spin(120.0), BASE).turned_first(lean, middle)
+    view1 = _goal_view(20.0 + 70.0)
+    found = turn_by_handle(wrong, seen0, UP, view1, K, 0.004)
+    assert rotation_deg(found.R.T @ truth.R) < 10.0
+    tipped = truth.turned_first(Rotation.from_rotvec(np.radians(80.0) * across).as_matrix(), middle)
+    assert turn_by_handle(tipped, seen0, UP, view1, K, 0.004) is tipped
+
+
 def test_a_goal_that_shows_no_handle_hides_it_behind_the_body():
     """The goal shows the mug with its handle (half way up) straight behind it, hidden: a motion that leaves the
     handle beside the body (where the goal shows the table) is spun to hide it, to within the turns that hide it."""
