@@ -162,13 +162,14 @@ def slice_radii(points: np.ndarray, axis: RevolutionAxis) -> tuple[np.ndarray, n
     )
 
 
-def _ends_alike(points: np.ndarray, axis: RevolutionAxis) -> bool:
+def ends_alike(points: np.ndarray, point: np.ndarray, direction: np.ndarray) -> bool:
     """Whether the body has one radius all along the middle of its seen length (within ENDS_ALIKE_REL of the
-    median) about its (refined) axis: no neck, no shoulder, nothing to tell one end from the other."""
+    median) about the axis through `point` along `direction` (unit): no neck, no shoulder, nothing to tell one end
+    from the other."""
     radii = []
-    for p in _middle_slices(points, axis.direction):
-        off = p - axis.point
-        radii.append(float(np.median(np.linalg.norm(off - np.outer(off @ axis.direction, axis.direction), axis=1))))
+    for p in _middle_slices(points, direction):
+        off = p - point
+        radii.append(float(np.median(np.linalg.norm(off - np.outer(off @ direction, direction), axis=1))))
     if len(radii) < 3:
         return False
     typical = float(np.median(radii))
@@ -188,4 +189,4 @@ def revolution_axis(points: np.ndarray) -> RevolutionAxis | None:
     if best.residual_rel > TOLERANCE_REL:
         return None
     refined = _refined(P, best)
-    return replace(refined, ends_alike=_ends_alike(P, refined))
+    return replace(refined, ends_alike=ends_alike(P, refined.point, refined.direction))

@@ -17,7 +17,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from pipeline.contact.symmetry import basis_across, revolution_axis
+from pipeline.contact.symmetry import basis_across, ends_alike, revolution_axis
 from pipeline.grounding.compare import SAME_SIDE_M, Symmetry, object_centre, object_symmetry
 from pipeline.grounding.hypotheses import AXIS_MAPS, FACE_TOL_DEG, face_frame
 from pipeline.grounding.types import SeenSymmetry
@@ -38,7 +38,6 @@ BOWL_INWARD_SHARE = 0.6  # points on a sphere, this many facing its centre: a bo
 MERIDIAN_SIN = 0.15  # a body of revolution's normals lie off the planes through its axis by this (sine, median)
 MERIDIAN_TELLING_SIN = 0.3  # normals this far off the axis (sine) tell where it lies ...
 MIN_MERIDIAN_POINTS = 20  # ... this many of them
-SAME_AXIS_DEG = 10.0  # a fitted axis this close to the vertical is the same axis
 OUTLINE_BINS = 36  # sectors round a standing axis in which the outline's reach is compared
 OUTLINE_REACH_REL = 0.25  # of the typical reach: a handle reaches further (raycast bowls' blobs 0.23, a can 0.23)
 OPEN_INWARD_SHARE = 0.1  # a body of revolution with this many points facing its axis is seen into: open at one end
@@ -143,12 +142,11 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray, up: np.ndarray | Non
 
 def _standing_round(points: np.ndarray, normals: np.ndarray, up: np.ndarray) -> Symmetry | None:
     """A body of revolution standing on its base that the points alone fit no axis to (a can seen on a few faint
-    slices, a bowl's outside on a sphere): its normals go round the vertical and its outline is round. Its ends
-    are not read (not alike: the fewer twins, the safer)."""
+    slices, a bowl's outside on a sphere): its normals go round the vertical and its outline is round."""
     standing = standing_axis(points, normals, up)
     if standing is None or not _round_outline(points, *standing):
         return None
-    return Symmetry(standing[0], standing[1], False)
+    return Symmetry(standing[0], standing[1], ends_alike(points, *standing))
 
 
 def on_its_base(points: np.ndarray, normals: np.ndarray, up: np.ndarray, revolution: Symmetry) -> Symmetry | None:
@@ -161,9 +159,9 @@ def on_its_base(points: np.ndarray, normals: np.ndarray, up: np.ndarray, revolut
         return revolution
     if not _round_outline(points, *standing):
         return None
-    # whether its ends look alike was read along the fitted axis: it holds for the vertical only where they agree
-    alike = revolution.ends_alike and abs(float(revolution.axis @ standing[1])) >= np.cos(np.radians(SAME_AXIS_DEG))
-    return Symmetry(standing[0], standing[1], alike)
+    # whether its ends look alike is read about the vertical: along a fitted axis tilted off it (a can's short seen
+    # half) the slices cut it askew and its radius seemed to change
+    return Symmetry(standing[0], standing[1], ends_alike(points, *standing))
 
 
 def standing_axis(points: np.ndarray, normals: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
