@@ -124,15 +124,12 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray, up: np.ndarray | Non
         if np.mean(cos < 0.0) >= BOWL_INWARD_SHARE:
             axis = revolution_axis(P)  # a bowl's inside: on a sphere, facing in, and it may go round an axis
             revolution = None if axis is None else Symmetry(axis.point, axis.direction, axis.ends_alike)
-    if revolution is None and up is not None:
-        revolution = _standing_round(P, normals, up)
-    if revolution is not None and revolution.axis is not None and up is not None:
+    standing = False
+    if up is not None:  # an axis fitted or none (a can on a few faint slices, a bowl's outside on a sphere)
         fitted, revolution = revolution, on_its_base(P, normals, up, revolution)
-        if revolution is None:  # round the vertical, but for a handle
+        if revolution is None:  # round the vertical but for a handle, or no body of revolution at all
             return SeenSymmetry("none", object_centre(P))
         standing = revolution is not fitted
-    else:
-        standing = False
     if revolution is not None and (standing or _whole_revolution(P, normals, revolution.centre, revolution.axis)):
         open_end = _facing_axis_share(P, normals, revolution.centre, revolution.axis) >= OPEN_INWARD_SHARE
         kind = "revolution_ends_alike" if revolution.ends_alike and not open_end else "revolution"
@@ -140,20 +137,13 @@ def shape_symmetry(points: np.ndarray, normals: np.ndarray, up: np.ndarray | Non
     return SeenSymmetry("none", object_centre(P))
 
 
-def _standing_round(points: np.ndarray, normals: np.ndarray, up: np.ndarray) -> Symmetry | None:
-    """A body of revolution standing on its base that the points alone fit no axis to (a can seen on a few faint
-    slices, a bowl's outside on a sphere): its normals go round the vertical and its outline is round."""
-    standing = standing_axis(points, normals, up)
-    if standing is None or not _round_outline(points, *standing):
-        return None
-    return Symmetry(standing[0], standing[1], ends_alike(points, *standing))
-
-
-def on_its_base(points: np.ndarray, normals: np.ndarray, up: np.ndarray, revolution: Symmetry) -> Symmetry | None:
-    """`revolution` (a body of revolution the points (N, 3) were fitted to) with its axis on the vertical `up` where
-    its normals and its outline go round that (standing_axis, _round_outline): whole, whatever faces along it; as it
-    is where its normals do not; None where they do but a part reaches out on one side (a handle: no body of
-    revolution)."""
+def on_its_base(
+    points: np.ndarray, normals: np.ndarray, up: np.ndarray, revolution: Symmetry | None
+) -> Symmetry | None:
+    """`revolution` (a body of revolution the points (N, 3) were fitted to, None where they fit none) with its axis
+    on the vertical `up` where its normals and its outline go round that (standing_axis, _round_outline): whole,
+    whatever faces along it, fitted or not; as it is where its normals do not; None where they do but a part reaches
+    out on one side (a handle: no body of revolution)."""
     standing = standing_axis(points, normals, up)
     if standing is None:
         return revolution
