@@ -25,10 +25,11 @@ from pipeline.grounding.hypotheses import (
 )
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.prepare import Prepared, prepare, refuse
-from pipeline.grounding.ray_rest import rest_along_ray
+from pipeline.grounding.ray_rest import MIN_GAP_M, ball_surface, rest_along_ray
 from pipeline.grounding.seen_symmetry import as_seen, off_support, shape_symmetry
 from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.select import fine_tolerance, select_motion
+from pipeline.grounding.silhouette import onto_ray, silhouette_ray
 from pipeline.grounding.tilt import kept_level
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
@@ -107,8 +108,14 @@ def _ground(
     symmetry, turns_margin = as_seen(shape, views), None
     if shape.kind != "none" and symmetry.kind == "none" and not hinted:  # a print: does it tell the shape's twins?
         sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine)
+    body0, min_gap = pp.cloud0, MIN_GAP_M  # what is set on its support, and the least correction taken (ray_rest)
     if symmetry.kind == "ball" and not hinted:  # no turn shows: its motion is its centre's shift, nothing tilts it
         sim = Similarity(sim.scale, np.eye(3), sim.apply(symmetry.centre[None])[0] - sim.scale * symmetry.centre)
+        ray = None if inp.depth1_measured else silhouette_ray(inp.mask1, K)
+        if ray is not None:  # a model's depth can put a ball to one side of where its image shows it
+            sim = onto_ray(sim, symmetry.centre, ray)
+        radius = float(np.median(np.linalg.norm(pp.cloud0 - symmetry.centre, axis=1)))
+        body0, min_gap = ball_surface(symmetry.centre, radius), 0.0
     elif not hinted:  # a tilt the views do not show better than none is not taken
 
         def geometry(motion: Similarity) -> float:
@@ -157,7 +164,7 @@ def _ground(
         )
     rested = 0.0
     if not inp.depth1_measured and not hinted:  # a model's goal depth: its distance along the ray from the support
-        sim, rested = rest_along_ray(sim, pp.cloud0, _scene_around(pp.points0, inp.mask0), up)
+        sim, rested = rest_along_ray(sim, body0, _scene_around(pp.points0, inp.mask0), up, min_gap)
     centre = pp.cloud0.mean(axis=0)
     t_rigid = sim.apply(centre[None])[0] - sim.R @ centre  # the centre lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))

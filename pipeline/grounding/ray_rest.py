@@ -8,7 +8,8 @@ of its points keeps its height above the support. So the goal is moved along the
 where the image shows it, until its seen points' middle stands as high above the support beneath the goal as it
 stood above the one beneath the start. The supports are read in the capture's measured depth, not in the model's.
 A tipped object, one that did not rest at the start (held, or on something unseen), one with nothing seen beneath
-its goal, or a correction too large to be depth error (put on something else): left as it is.
+its goal or nothing level there (the inside of a bowl), or a correction too large to be depth error (put on
+something else): left as it is.
 """
 
 from __future__ import annotations
@@ -26,15 +27,19 @@ MIN_GAP_M = 0.002  # ... and under this it is within what the heights are read t
 MIN_RAY_SLOPE = 0.2  # a ray this close to horizontal hardly changes height along it
 BENEATH_M = 0.02  # scene points within this of the object's footprint (across the vertical) are beneath it
 MIN_SUPPORT_POINTS = 20
+LEVEL_SPREAD_M = 0.01  # a support's heights beneath spread this much at most (p10-p90; a table read 1-4 mm)
 
 
 def rest_along_ray(
-    motion: Similarity, cloud0: np.ndarray, scene0: np.ndarray, up: np.ndarray
+    motion: Similarity, cloud0: np.ndarray, scene0: np.ndarray, up: np.ndarray, min_gap_m: float = MIN_GAP_M
 ) -> tuple[Similarity, float]:
     """(the motion moved along the camera ray through its goal so that the object stands above the support
     beneath its goal as it stood above the one beneath it at the start, the shift along the ray [m]), or (the
-    motion, 0) where that cannot be told. `cloud0` (N, 3): the object's seen points at the start; `scene0` (M, 3):
-    the capture's other points (the object's own left out); `up` (3,): the table normal; all camera frame."""
+    motion, 0) where that cannot be told. `cloud0` (N, 3): the object's seen points at the start, or its whole
+    body where that is known (a ball: its seen points stop near the equator, too high to find the table beneath);
+    `scene0` (M, 3): the capture's other points (the object's own left out); `up` (3,): the table normal; all camera
+    frame. `min_gap_m`: corrections smaller than this are left (0 for a whole body: a ball's centre is read to a
+    fraction of a millimetre, its seen points' middle through ICP is not)."""
     up = up / np.linalg.norm(up)
     if np.degrees(np.arccos(np.clip((motion.R @ up) @ up, -1.0, 1.0))) > UPRIGHT_DEG:
         return motion, 0.0
@@ -43,7 +48,7 @@ def rest_along_ray(
         return motion, 0.0
     goal = motion.apply(cloud0)
     now = _height_above_support(goal, scene0, up, MAX_SHIFT_M)
-    if now is None or not MIN_GAP_M <= abs(now - start) <= MAX_SHIFT_M:
+    if now is None or not min_gap_m <= abs(now - start) <= MAX_SHIFT_M:
         return motion, 0.0
     ray = goal.mean(axis=0) / np.linalg.norm(goal.mean(axis=0))
     if abs(ray @ up) < MIN_RAY_SLOPE:
@@ -52,13 +57,24 @@ def rest_along_ray(
     return Similarity(motion.scale, motion.R, motion.t + shift * ray), shift
 
 
+def ball_surface(centre: np.ndarray, radius: float, count: int = 256) -> np.ndarray:
+    """(count, 3) points spread evenly over a ball's whole surface (a Fibonacci lattice): the body rest_along_ray
+    sets on its support where the seen points stop near the ball's equator."""
+    k = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * k / count
+    azimuth = np.pi * (1.0 + 5**0.5) * k
+    ring = np.sqrt(1.0 - z**2)
+    return centre + radius * np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), z], axis=1)
+
+
 def _height_above_support(points: np.ndarray, scene: np.ndarray, up: np.ndarray, reach: float) -> float | None:
     """How far the points' middle stands above the scene beneath them (the median height of the scene points under
     their footprint within `reach` of their lowest either way: the highest of them would be the noisiest), None
-    when nothing is seen there. The middle, not the lowest: a motion a few degrees off tilts a wide object's lowest
-    point by centimetres, its middle hardly."""
+    when nothing is seen there or it is not level (LEVEL_SPREAD_M). The middle, not the lowest: a motion a few
+    degrees off tilts a wide object's lowest point by centimetres, its middle hardly."""
     lowest = float(np.percentile(points @ up, LOWEST_PERCENTILE))
     level = scene[np.abs(scene @ up - lowest) <= reach]
     heights = level[beneath(points, level, up, BENEATH_M)] @ up
-    middle = float(np.mean(points @ up))
-    return middle - float(np.median(heights)) if len(heights) >= MIN_SUPPORT_POINTS else None
+    if len(heights) < MIN_SUPPORT_POINTS or np.ptp(np.percentile(heights, [10, 90])) > LEVEL_SPREAD_M:
+        return None  # nothing seen beneath, or no one level to stand on (the inside of a bowl)
+    return float(np.mean(points @ up)) - float(np.median(heights))

@@ -75,3 +75,32 @@ def test_a_tipped_object_or_one_held_above_the_table_is_left_as_it_is():
     slid = Similarity(1.0, np.eye(3), 0.1 * ACROSS - 0.005 * UP)  # held 30 mm up at the start, 25 mm at the goal
     kept, shift = rest_along_ray(slid, _cube(held), _table(held), UP)
     assert kept is slid and shift == 0.0
+
+
+def test_a_goal_over_something_not_level_is_left_as_it_is():
+    """Put into a dish, the object stands on no one level the capture shows: its heights beneath spread over
+    centimetres, and their median is no support to rest on."""
+    c0 = _start()
+    goal = c0 + 0.15 * ACROSS
+    table = _table(c0)
+    offset = table - goal
+    across = np.hypot(offset @ ACROSS, offset @ ALONG)
+    dish = across < 0.07
+    table[dish] += (0.03 * (across[dish] / 0.07) ** 2)[:, None] * UP  # a dish's inside, rising 3 cm to its rim
+    ray = goal / np.linalg.norm(goal)
+    off = Similarity(1.0, np.eye(3), goal - c0 + 0.015 * ray)
+    kept, shift = rest_along_ray(off, _cube(c0), table, UP)
+    assert kept is off and shift == 0.0
+    _, shift = rest_along_ray(off, _cube(c0), _table(c0), UP)  # the same goal over the table is set down
+    assert abs(shift + 0.015) < 0.002, shift
+
+
+def test_a_correction_under_the_least_gap_is_taken_only_for_a_whole_body():
+    c0 = _start()
+    goal = c0 + 0.1 * ACROSS
+    ray = goal / np.linalg.norm(goal)
+    off = Similarity(1.0, np.eye(3), goal - c0 + 0.0015 * ray)  # 1.5 mm long: within a seen cloud's noise
+    kept, shift = rest_along_ray(off, _cube(c0), _table(c0), UP)
+    assert kept is off and shift == 0.0
+    rested, shift = rest_along_ray(off, _cube(c0), _table(c0), UP, min_gap_m=0.0)
+    assert np.linalg.norm(rested.apply(c0[None])[0] - goal) < 0.0003, shift
