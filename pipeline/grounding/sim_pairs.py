@@ -79,14 +79,31 @@ class PairRenderer:
         mujoco.mj_kinematics(w.model, w.data)
 
     def _lowest_z(self, name: str) -> float:
-        """Lowest point of the object's geoms (their bounding boxes) in the base frame."""
+        """Lowest point of the object's geoms in the base frame: exact for spheres, capsules, cylinders, ellipsoids
+        and boxes, a geom's bounding box otherwise. A rotated bounding box's lowest corner lies below a round
+        geom's lowest point, and the goal set on it floated: a ball tipped by 45 deg hovered 26 mm over the table."""
         m, d = self.world.model, self.world.data
         root = m.body(name).id
         zs = []
         for g in np.flatnonzero(m.body_rootid[m.geom_bodyid] == root):
-            c, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
-            corners = c + half * np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-            zs.append((corners @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g])[:, 2].min())
+            size, down = m.geom_size[g], d.geom_xmat[g].reshape(3, 3)[2]  # the geom's axes' heights (world z row)
+            kind = m.geom_type[g]
+            if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+                reach = size[0]
+            elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+                reach = size[1] * abs(down[2]) + size[0]
+            elif kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+                reach = size[1] * abs(down[2]) + size[0] * math.sqrt(max(0.0, 1.0 - down[2] ** 2))
+            elif kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+                reach = float(np.linalg.norm(size * down))
+            elif kind == mujoco.mjtGeom.mjGEOM_BOX:
+                reach = float(np.abs(down) @ size)
+            else:
+                c, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+                corners = c + half * np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+                zs.append((corners @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g])[:, 2].min())
+                continue
+            zs.append(d.geom_xpos[g][2] - reach)
         return float(min(zs))
 
     def _centre(self, name: str) -> np.ndarray:
