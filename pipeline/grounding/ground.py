@@ -29,7 +29,7 @@ from pipeline.grounding.ray_rest import MIN_GAP_M, ball_surface, rest_along_ray
 from pipeline.grounding.seen_symmetry import as_seen, off_support, shape_symmetry
 from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.select import fine_tolerance, select_motion
-from pipeline.grounding.silhouette import onto_ray, silhouette_ray
+from pipeline.grounding.silhouette import axis_into_plane, onto_ray, silhouette_ray
 from pipeline.grounding.tilt import kept_level
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
@@ -108,7 +108,8 @@ def _ground(
     symmetry, turns_margin = as_seen(shape, views), None
     if shape.kind != "none" and symmetry.kind == "none" and not hinted:  # a print: does it tell the shape's twins?
         sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine)
-    body0, min_gap = pp.cloud0, MIN_GAP_M  # what is set on its support, and the least correction taken (ray_rest)
+    # what is set on its support, the least correction taken and the point whose ray it moves along (ray_rest)
+    body0, min_gap, through = pp.cloud0, MIN_GAP_M, None
     if symmetry.kind == "ball" and not hinted:  # no turn shows: its motion is its centre's shift, nothing tilts it
         sim = Similarity(sim.scale, np.eye(3), sim.apply(symmetry.centre[None])[0] - sim.scale * symmetry.centre)
         ray = None if inp.depth1_measured else silhouette_ray(inp.mask1, K)
@@ -122,6 +123,10 @@ def _ground(
             return view_consistency(motion, view0, view1, K, fine).geometry
 
         sim = kept_level(sim, up, shape.centre, geometry)
+        if shape.axis is not None and not inp.depth1_measured:  # a model's depth can put it to one side
+            in_plane = axis_into_plane(sim, shape.centre, shape.axis, inp.mask1, K)
+            if in_plane is not None:
+                sim, through = in_plane, shape.centre
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())
@@ -164,7 +169,7 @@ def _ground(
         )
     rested = 0.0
     if not inp.depth1_measured and not hinted:  # a model's goal depth: its distance along the ray from the support
-        sim, rested = rest_along_ray(sim, body0, _scene_around(pp.points0, inp.mask0), up, min_gap)
+        sim, rested = rest_along_ray(sim, body0, _scene_around(pp.points0, inp.mask0), up, min_gap, through)
     centre = pp.cloud0.mean(axis=0)
     t_rigid = sim.apply(centre[None])[0] - sim.R @ centre  # the centre lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))

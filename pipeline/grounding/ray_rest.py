@@ -31,7 +31,12 @@ LEVEL_SPREAD_M = 0.01  # a support's heights beneath spread this much at most (p
 
 
 def rest_along_ray(
-    motion: Similarity, cloud0: np.ndarray, scene0: np.ndarray, up: np.ndarray, min_gap_m: float = MIN_GAP_M
+    motion: Similarity,
+    cloud0: np.ndarray,
+    scene0: np.ndarray,
+    up: np.ndarray,
+    min_gap_m: float = MIN_GAP_M,
+    through: np.ndarray | None = None,
 ) -> tuple[Similarity, float]:
     """(the motion moved along the camera ray through its goal so that the object stands above the support
     beneath its goal as it stood above the one beneath it at the start, the shift along the ray [m]), or (the
@@ -39,7 +44,9 @@ def rest_along_ray(
     body where that is known (a ball: its seen points stop near the equator, too high to find the table beneath);
     `scene0` (M, 3): the capture's other points (the object's own left out); `up` (3,): the table normal; all camera
     frame. `min_gap_m`: corrections smaller than this are left (0 for a whole body: a ball's centre is read to a
-    fraction of a millimetre, its seen points' middle through ICP is not)."""
+    fraction of a millimetre, its seen points' middle through ICP is not). `through` (3,): the point, as at the
+    start, whose ray the goal moves along, where its place across the ray is known (a body of revolution's axis
+    set in its outline's plane of symmetry, silhouette.py); the points' middle by default."""
     up = up / np.linalg.norm(up)
     if np.degrees(np.arccos(np.clip((motion.R @ up) @ up, -1.0, 1.0))) > UPRIGHT_DEG:
         return motion, 0.0
@@ -50,7 +57,8 @@ def rest_along_ray(
     now = _height_above_support(goal, scene0, up, MAX_SHIFT_M)
     if now is None or not min_gap_m <= abs(now - start) <= MAX_SHIFT_M:
         return motion, 0.0
-    ray = goal.mean(axis=0) / np.linalg.norm(goal.mean(axis=0))
+    ray = goal.mean(axis=0) if through is None else motion.apply(through[None])[0]
+    ray /= np.linalg.norm(ray)
     if abs(ray @ up) < MIN_RAY_SLOPE:
         return motion, 0.0
     shift = -(now - start) / float(ray @ up)
