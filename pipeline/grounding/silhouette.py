@@ -46,9 +46,7 @@ def silhouette_ray(mask: np.ndarray, K: CameraIntrinsics) -> np.ndarray | None:
     moments = cv2.moments(outline)
     if moments["m00"] < ROUND_FILL * np.pi * radius**2:
         return None
-    u, v = moments["m10"] / moments["m00"], moments["m01"] / moments["m00"]
-    ray = np.array([(u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0])
-    return ray / np.linalg.norm(ray)
+    return _unit_rays(np.array([[moments["m10"], moments["m01"]]]) / moments["m00"], K)[0]
 
 
 def mirror_plane(mask: np.ndarray, K: CameraIntrinsics, axis: np.ndarray) -> np.ndarray | None:
@@ -61,8 +59,7 @@ def mirror_plane(mask: np.ndarray, K: CameraIntrinsics, axis: np.ndarray) -> np.
     filled = np.zeros(mask.shape, np.uint8)
     cv2.drawContours(filled, [outline], -1, 1, thickness=cv2.FILLED)
     v, u = np.nonzero(filled)
-    rays = np.stack([(u - K.cx) / K.fx, (v - K.cy) / K.fy, np.ones(len(u))], axis=1)
-    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+    rays = _unit_rays(np.column_stack([u, v]), K)
     axis = axis / np.linalg.norm(axis)
     e1, e2 = basis_across(axis)
     azimuth = np.arctan2(rays @ e2, rays @ e1)
@@ -70,9 +67,8 @@ def mirror_plane(mask: np.ndarray, K: CameraIntrinsics, axis: np.ndarray) -> np.
     azimuth = np.angle(np.exp(1j * (azimuth - middle)))  # about the outline's middle, clear of the wrap
     height = rays @ axis
     band = np.minimum((BANDS * (height - height.min()) / max(np.ptp(height), 1e-12)).astype(int), BANDS - 1)
-    spans = np.array(
-        [(azimuth[band == k].min(), azimuth[band == k].max()) for k in range(BANDS) if np.sum(band == k) >= MIN_BAND_PX]
-    )
+    in_bands = (azimuth[band == k] for k in range(BANDS))
+    spans = np.array([(a.min(), a.max()) for a in in_bands if len(a) >= MIN_BAND_PX])
     if len(spans) < MIN_BANDS:
         return None
     mids, halves = spans.mean(axis=1), np.ptp(spans, axis=1) / 2
@@ -102,6 +98,12 @@ def axis_into_plane(
         return None
     goal = motion.apply(centre[None])[0]
     return Similarity(motion.scale, motion.R, motion.t - normal * float(goal @ normal))
+
+
+def _unit_rays(pixels: np.ndarray, K: CameraIntrinsics) -> np.ndarray:
+    """(N, 3) unit camera-frame rays through pixels (N, 2)."""
+    rays = K.unproject(pixels, np.ones(len(pixels)))
+    return rays / np.linalg.norm(rays, axis=1, keepdims=True)
 
 
 def _outline(mask: np.ndarray) -> np.ndarray | None:
