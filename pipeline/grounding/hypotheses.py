@@ -93,7 +93,7 @@ def _agreement(
 ) -> np.ndarray:
     """(M, N, 3) moved points -> mean soft agreement (silhouette x depth, colour weighted in by COLOUR_WEIGHT) of the
     camera-facing, not occluded ones with the other view."""
-    facing = (normals * X).sum(axis=-1) < 0
+    facing = np.einsum("mnk,mnk->mn", normals, X) < 0  # einsum: a length-3 axis's sum() is the sweep's slowest step
     z = np.maximum(X[..., 2], 1e-3)
     u = np.round(K.fx * X[..., 0] / z + K.cx).astype(int)
     v = np.round(K.fy * X[..., 1] / z + K.cy).astype(int)
@@ -103,7 +103,8 @@ def _agreement(
     seen = np.isfinite(d)
     d = np.where(seen, d, z)
     counted = facing & (~inside | ~seen | (z < d + tol_m))  # points behind the observed surface: no evidence
-    colour = np.exp(-np.sum((other.chroma_image[v, u] - chroma[None]) ** 2, axis=-1) / CHROMA_SIGMA**2)
+    off = other.chroma_image[v, u] - chroma[None]
+    colour = np.exp(-np.einsum("mnk,mnk->mn", off, off) / CHROMA_SIGMA**2)
     geometry = inside * closeness[v, u] * np.exp(-(((z - d) / tol_m) ** 2))
     hit = geometry * (1.0 - COLOUR_WEIGHT + COLOUR_WEIGHT * colour)
     return (hit * counted).sum(axis=1) / np.maximum(counted.sum(axis=1), 1)

@@ -119,10 +119,11 @@ def _refine(
     max_corr = cfg.icp_max_corr_rel * size
     source = sim.scale * cloud0
     res = target.refine(source, T0, max_corr)
-    placed = target.overlap(sim.apply(cloud0), max_corr)
     refined = target.overlap(source @ res.T[:3, :3].T + res.T[:3, 3], max_corr)
-    if refined < MIN_FITNESS or refined < placed - DRIFT_MARGIN:  # ICP made it worse: keep it as placed
-        return (sim, placed) if placed >= MIN_FITNESS else None
+    if refined < MIN_FITNESS or refined < 1.0 - DRIFT_MARGIN:  # else no placing can have met more by the margin
+        placed = target.overlap(sim.apply(cloud0), max_corr)
+        if refined < MIN_FITNESS or refined < placed - DRIFT_MARGIN:  # ICP made it worse: keep it as placed
+            return (sim, placed) if placed >= MIN_FITNESS else None
     dR = res.T[:3, :3] @ sim.R.T
     angle = np.degrees(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1)))
     c = sim.scale * cloud0.mean(axis=0)

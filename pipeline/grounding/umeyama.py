@@ -114,8 +114,8 @@ def ransac_similarity(
     counts = np.empty(len(s), dtype=np.int64)
     for start in range(0, len(s), 512):  # bound memory: 512 hypotheses x N points at a time
         sl = slice(start, start + 512)
-        pred = s[sl, None, None] * np.einsum("kij,nj->kni", R[sl], src) + t[sl, None]
-        counts[sl] = (np.linalg.norm(pred - dst[None], axis=2) < threshold_m).sum(axis=1)
+        off = s[sl, None, None] * np.einsum("kij,nj->kni", R[sl], src) + t[sl, None] - dst[None]
+        counts[sl] = (np.einsum("kni,kni->kn", off, off) < threshold_m**2).sum(axis=1)
     results: list[RansacResult] = []
     for k in np.argsort(-counts, kind="stable")[: 20 * top_k]:
         if len(results) == top_k or counts[k] < 3:

