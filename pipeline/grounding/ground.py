@@ -40,6 +40,7 @@ from pipeline.perception.features import FeatureExtractor
 MAX_CONSISTENCY_MATCHES = 1500
 OUTLINE_PX = 4  # a mask's outline is this many pixels off at most (a segmenter's dilation, a ragged edge)
 ALIGNED_RESIDUAL_OF_THRESHOLD = 0.5  # an inlier RMS above this share of the inlier threshold is no alignment
+MAX_ACROSS_REL = 1.0  # the outline moving the goal further across the ray than the object's size: they disagree
 
 
 def ground(
@@ -110,11 +111,14 @@ def _ground(
         sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine)
     # what is set on its support, the least correction taken and the point whose ray it moves along (ray_rest)
     body0, min_gap, through = pp.cloud0, MIN_GAP_M, None
+    # `placed`: the motion moved across the ray to where the goal image shows the object (silhouette.py); the checks
+    # below judge `sim`, the registration, on the goal cloud it was fitted to: the model's depth the move corrects
+    # would refuse it (a ball put back on its outline's ray kept 2 of its 430 points within 4.5 mm of the goal cloud)
     if symmetry.kind == "ball" and not hinted:  # no turn shows: its motion is its centre's shift, nothing tilts it
         sim = Similarity(sim.scale, np.eye(3), sim.apply(symmetry.centre[None])[0] - sim.scale * symmetry.centre)
         ray = None if inp.depth1_measured else silhouette_ray(inp.mask1, K)
-        if ray is not None:  # a model's depth can put a ball to one side of where its image shows it
-            sim = onto_ray(sim, symmetry.centre, ray)
+        # a model's depth can put a ball to one side of where its image shows it
+        placed = sim if ray is None else onto_ray(sim, symmetry.centre, ray)
         radius = float(np.median(np.linalg.norm(pp.cloud0 - symmetry.centre, axis=1)))
         body0, min_gap = ball_surface(symmetry.centre, radius), 0.0
     elif not hinted:  # a tilt the views do not show better than none is not taken
@@ -122,11 +126,14 @@ def _ground(
         def geometry(motion: Similarity) -> float:
             return view_consistency(motion, view0, view1, K, fine).geometry
 
-        sim = kept_level(sim, up, shape.centre, geometry)
+        sim = placed = kept_level(sim, up, shape.centre, geometry)
         if shape.axis is not None and not inp.depth1_measured:  # a model's depth can put it to one side
             in_plane = axis_into_plane(sim, shape.centre, shape.axis, inp.mask1, K)
             if in_plane is not None:
-                sim, through = in_plane, shape.centre
+                placed, through = in_plane, shape.centre
+    else:
+        placed = sim
+    across = float(np.linalg.norm(placed.t - sim.t))  # a shift only: the same for every point
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
     n_in = int(inliers.sum())
@@ -167,18 +174,25 @@ def _ground(
             residual_m=rms,
             **common,
         )
+    if across > MAX_ACROSS_REL * size:
+        return refuse(
+            f"the goal image shows the object {across * 1000:.0f} mm across the camera ray from where its goal depth "
+            f"puts it (limit {MAX_ACROSS_REL * size * 1000:.0f} mm, its size): the goal's mask or depth is off",
+            residual_m=rms,
+            **common,
+        )
     rested = 0.0
     if not inp.depth1_measured and not hinted:  # a model's goal depth: its distance along the ray from the support
-        sim, rested = rest_along_ray(sim, body0, _scene_around(pp.points0, inp.mask0), up, min_gap, through)
+        placed, rested = rest_along_ray(placed, body0, _scene_around(pp.points0, inp.mask0), up, min_gap, through)
     centre = pp.cloud0.mean(axis=0)
-    t_rigid = sim.apply(centre[None])[0] - sim.R @ centre  # the centre lands where the similarity puts it
+    t_rigid = placed.apply(centre[None])[0] - placed.R @ centre  # the centre lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))
     return ObjectMotion(
         ok=True,
         reason="",
-        R=sim.R,
+        R=placed.R,
         t=t_rigid,
-        scale=sim.scale,
+        scale=placed.scale,
         residual_m=rms,
         confidence=confidence,
         details={
@@ -187,6 +201,7 @@ def _ground(
             "threshold_m": threshold,
             **({"hint_taken": True} if hinted else {}),
             **({"turns_margin": turns_margin} if turns_margin is not None else {}),
+            **({"moved_across_ray_m": across} if across else {}),
             **({"rested_along_ray_m": rested} if rested else {}),
         },
         symmetry=symmetry,

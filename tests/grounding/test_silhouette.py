@@ -150,3 +150,32 @@ def test_a_round_body_slid_across_the_table_lands_where_its_outline_and_its_supp
     motion = ground(inp, OfflineFeatures(), GroundingConfig(), T_base_camera=p.T_base_camera)
     assert motion.ok, motion.reason
     assert translation_error_mm(motion.R, motion.t, p.T_motion_camera, p.centre_camera) < within_mm
+
+
+@pytest.mark.parametrize("off_mm, accepted", [(45.0, True), (150.0, False)])
+def test_the_checks_judge_the_registration_and_an_outline_far_off_it_refuses(monkeypatch, off_mm, accepted):
+    """A ball's goal is put on its outline's ray after the registration's checks, which judge the fit to the goal
+    cloud that the move corrects: checked after it, this ball (registered 20 mm across the ray from the truth) with
+    its outline's ray 45 mm aside kept 19 of its 430 points within the inlier threshold and was refused. An outline
+    further off than the object's size (75 mm) is no depth error, and refuses. Raycast 31:15 with the outline's ray
+    turned `off_mm` aside at the ball."""
+    import pipeline.grounding.ground as ground_module
+    from bench.pairgen.generate import make_pair
+    from pipeline.grounding.types import GroundingConfig, GroundingInput
+    from pipeline.perception.offline_features import OfflineFeatures
+
+    p = make_pair(31, 15)
+    truth = p.T_motion_camera[:3, :3] @ p.centre_camera + p.T_motion_camera[:3, 3]
+    side = np.cross(truth, [0.0, 1.0, 0.0])
+    aside = truth + off_mm / 1000 * side / np.linalg.norm(side)
+    monkeypatch.setattr(ground_module, "silhouette_ray", lambda mask, K: aside / np.linalg.norm(aside))
+    inp = GroundingInput(p.rgb0, p.depth0, p.mask0, p.rgb1, p.depth1, p.depth1_kind, p.mask1, p.intrinsics)
+    motion = ground_module.ground(inp, OfflineFeatures(), GroundingConfig(), T_base_camera=p.T_base_camera)
+    assert motion.ok == accepted, motion.reason
+    if accepted:  # on the outline's ray, and the move recorded
+        centre = motion.R @ p.centre_camera + motion.t
+        ray = aside / np.linalg.norm(aside)
+        assert np.linalg.norm(centre - (centre @ ray) * ray) < 0.003
+        assert motion.details["moved_across_ray_m"] > 0.005
+    else:
+        assert "across the camera ray" in motion.reason
