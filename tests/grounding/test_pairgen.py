@@ -181,3 +181,23 @@ def test_the_bench_puts_each_failure_down_to_the_score_or_the_search():
         "search_missed": 3,
         "other_refusal": 1,
     }
+
+
+def test_the_bench_counts_the_right_answers_the_agreement_refused():
+    """A refusal by agreement is checked by the answer ground() gives with no threshold: right (within 20 mm and
+    10 deg) or wrong, or none."""
+    from bench.grounding import summarise
+
+    refusal = {"ok": False, "reason": "the motion does not explain the images: view agreement 0.2 (need 0.3)"}
+    refused = {"t_mm": math.inf, "r_deg": math.inf, "r_true_deg": math.inf, "ms": 1.0, "cpu_ms": 1.0}
+
+    def record(answer: dict | None) -> dict:
+        ours = refusal | refused | {"refused_answer": answer}
+        paper = {"ok": True, "t_mm": 1.0, "r_deg": 1.0, "r_true_deg": 1.0, "ms": 1.0, "cpu_ms": 1.0}
+        return {"ours": ours, "paper": paper, "true_agreement": 0.1}
+
+    right = {"t_mm": 2.0, "r_deg": 1.0, "r_true_deg": 1.0, "symmetry": "none"}
+    records = [record(right), record(right | {"t_mm": 50.0}), record(right | {"r_deg": 30.0}), record(None)]
+    truth = summarise(records, 0.3)["true_motion"]
+    assert truth["refused_by_agreement"] == 4
+    assert truth["right_answers_refused"] == 1
