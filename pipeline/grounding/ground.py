@@ -183,7 +183,9 @@ def _ground(
         )
     rested = 0.0
     if not inp.depth1_measured and not hinted:  # a model's goal depth: its distance along the ray from the support
-        placed, rested = rest_along_ray(placed, body0, _scene_around(pp.points0, inp.mask0), up, min_gap, through)
+        spin = None if shape.axis is None else (shape.centre, shape.axis)  # its turns about its axis look alike
+        scene = _scene_around(pp.points0, inp.mask0)
+        placed, rested = rest_along_ray(placed, body0, scene, up, min_gap, through, spin)
     centre = pp.cloud0.mean(axis=0)
     t_rigid = placed.apply(centre[None])[0] - placed.R @ centre  # the centre lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))

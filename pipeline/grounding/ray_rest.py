@@ -37,6 +37,7 @@ def rest_along_ray(
     up: np.ndarray,
     min_gap_m: float = MIN_GAP_M,
     through: np.ndarray | None = None,
+    spin: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[Similarity, float]:
     """(the motion moved along the camera ray through its goal so that the object stands above the support
     beneath its goal as it stood above the one beneath it at the start, the shift along the ray [m]), or (the
@@ -46,14 +47,18 @@ def rest_along_ray(
     frame. `min_gap_m`: corrections smaller than this are left (0 for a whole body: a ball's centre is read to a
     fraction of a millimetre, its seen points' middle through ICP is not). `through` (3,): the point, as at the
     start, whose ray the goal moves along, where its place across the ray is known (a body of revolution's axis
-    set in its outline's plane of symmetry, silhouette.py); the points' middle by default."""
+    set in its outline's plane of symmetry, silhouette.py); the points' middle by default. `spin` ((3,), (3,)): a
+    point on a body of revolution's axis and the axis, as at the start: the motion is judged by its twin spun about
+    it that tilts the vertical least (a bottle lying on its side, slid, may come out spun 25 deg about its own axis:
+    the same body in the same place, its seen points at other heights)."""
     up = up / np.linalg.norm(up)
-    if np.degrees(np.arccos(np.clip((motion.R @ up) @ up, -1.0, 1.0))) > UPRIGHT_DEG:
+    upright = motion if spin is None else least_tilting_spin(motion, spin[1], spin[0], up)
+    if np.degrees(np.arccos(np.clip((upright.R @ up) @ up, -1.0, 1.0))) > UPRIGHT_DEG:
         return motion, 0.0
     start = _height_above_support(cloud0, scene0, up, RESTED_M)
     if start is None:  # nothing beneath it within RESTED_M: it did not rest
         return motion, 0.0
-    goal = motion.apply(cloud0)
+    goal = upright.apply(cloud0)
     now = _height_above_support(goal, scene0, up, MAX_SHIFT_M)
     if now is None or not min_gap_m <= abs(now - start) <= MAX_SHIFT_M:
         return motion, 0.0
@@ -63,6 +68,18 @@ def rest_along_ray(
         return motion, 0.0
     shift = -(now - start) / float(ray @ up)
     return Similarity(motion.scale, motion.R, motion.t + shift * ray), shift
+
+
+def least_tilting_spin(motion: Similarity, axis: np.ndarray, point: np.ndarray, up: np.ndarray) -> Similarity:
+    """`motion` after the body is first spun about its own `axis` (through `point`, as at the start, camera frame) by
+    the angle that leaves the vertical `up` (unit) tilted least: f(a) = up . R S(a) up is A cos a + B sin a + const."""
+    a = axis / np.linalg.norm(axis)
+    across = up - (up @ a) * a
+    A, B = up @ motion.R @ across, up @ motion.R @ np.cross(a, across)
+    angle = float(np.arctan2(B, A))
+    c, s = np.cos(angle), np.sin(angle)
+    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return motion.turned_first(np.eye(3) + s * K + (1.0 - c) * K @ K, point)  # Rodrigues
 
 
 def ball_surface(centre: np.ndarray, radius: float, count: int = 256) -> np.ndarray:

@@ -104,3 +104,28 @@ def test_a_correction_under_the_least_gap_is_taken_only_for_a_whole_body():
     assert kept is off and shift == 0.0
     rested, shift = rest_along_ray(off, _cube(c0), _table(c0), UP, min_gap_m=0.0)
     assert np.linalg.norm(rested.apply(c0[None])[0] - goal) < 0.0003, shift
+
+
+def _lying_can(centre: np.ndarray, radius: float = 0.03, length: float = 0.12) -> np.ndarray:
+    """A can lying on its side along ACROSS, its surface points."""
+    x, theta = np.meshgrid(np.linspace(-length / 2, length / 2, 25), np.linspace(0.0, 2 * np.pi, 36, endpoint=False))
+    ring = np.cos(theta.ravel())[:, None] * UP + np.sin(theta.ravel())[:, None] * ALONG
+    return centre + x.ravel()[:, None] * ACROSS + radius * ring
+
+
+def test_a_body_of_revolution_lying_and_spun_about_its_axis_is_rested_by_its_level_twin():
+    """A can lying on its side, slid, comes out spun 25 deg about its own axis (the same body in the same place): as
+    it is the motion tilts the vertical 25 deg and is not rested; its twin spun back is upright and is."""
+    radius = 0.03
+    c0 = TABLE + radius * UP
+    slide = 0.1 * ACROSS + 0.04 * ALONG
+    goal = c0 + slide
+    ray = goal / np.linalg.norm(goal)
+    spun = Rotation.from_rotvec(np.radians(25.0) * ACROSS).as_matrix()
+    off = Similarity(1.0, spun, c0 - spun @ c0 + slide + 0.02 * ray)  # the goal depth 2 cm long under the can
+    can, table = _lying_can(c0, radius), _table(c0)
+    assert rest_along_ray(off, can, table, UP)[1] == 0.0
+    rested, shift = rest_along_ray(off, can, table, UP, spin=(c0, ACROSS))
+    assert abs(shift + 0.02) < 0.002, shift
+    assert np.linalg.norm(rested.apply(c0[None])[0] - goal) < 0.002
+    assert np.allclose(rested.R, spun)  # the motion's own turn kept: only its place along the ray changes
