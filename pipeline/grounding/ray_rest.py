@@ -20,6 +20,8 @@ from pipeline.grounding.settle import beneath
 from pipeline.grounding.umeyama import Similarity
 
 UPRIGHT_DEG = 10.0  # the motion tilts the vertical less than this: its points keep their heights
+SPUN_UPRIGHT_DEG = 2.0  # a level twin spun about the body's axis still tilting more: the axis is read too poorly
+# for its seen points' heights (MuJoCo bottles lying: 3.7-7.9 deg, rested 4-16 mm wrong; raycast ones 0.5-1.0 deg)
 LOWEST_PERCENTILE = 1.0  # an object's lowest point, robust to a few stray points
 RESTED_M = 0.015  # at the start, its lowest seen point within this of a support beneath: it rested there
 MAX_SHIFT_M = 0.03  # a correction of the height above the support beyond this is not depth error ...
@@ -52,8 +54,12 @@ def rest_along_ray(
     it that tilts the vertical least (a bottle lying on its side, slid, may come out spun 25 deg about its own axis:
     the same body in the same place, its seen points at other heights)."""
     up = up / np.linalg.norm(up)
-    upright = motion if spin is None else least_tilting_spin(motion, spin[1], spin[0], up)
-    if np.degrees(np.arccos(np.clip((upright.R @ up) @ up, -1.0, 1.0))) > UPRIGHT_DEG:
+    upright = motion
+    if _tilt_deg(motion, up) > UPRIGHT_DEG and spin is not None:  # a level twin, with its axis read well enough
+        upright = least_tilting_spin(motion, spin[1], spin[0], up)
+        if _tilt_deg(upright, up) > SPUN_UPRIGHT_DEG:
+            return motion, 0.0
+    if _tilt_deg(upright, up) > UPRIGHT_DEG:
         return motion, 0.0
     start = _height_above_support(cloud0, scene0, up, RESTED_M)
     if start is None:  # nothing beneath it within RESTED_M: it did not rest
@@ -68,6 +74,10 @@ def rest_along_ray(
         return motion, 0.0
     shift = -(now - start) / float(ray @ up)
     return Similarity(motion.scale, motion.R, motion.t + shift * ray), shift
+
+
+def _tilt_deg(motion: Similarity, up: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip((motion.R @ up) @ up, -1.0, 1.0))))
 
 
 def least_tilting_spin(motion: Similarity, axis: np.ndarray, point: np.ndarray, up: np.ndarray) -> Similarity:
