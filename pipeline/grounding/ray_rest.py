@@ -15,6 +15,7 @@ something else): left as it is.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from pipeline.grounding.settle import beneath
 from pipeline.grounding.umeyama import Similarity
@@ -55,12 +56,12 @@ def rest_along_ray(
     the same body in the same place, its seen points at other heights)."""
     up = up / np.linalg.norm(up)
     upright = motion
-    if _tilt_deg(motion, up) > UPRIGHT_DEG and spin is not None:  # a level twin, with its axis read well enough
+    if _tilt_deg(motion, up) > UPRIGHT_DEG:  # tipped, unless a level twin with its axis read well enough
+        if spin is None:
+            return motion, 0.0
         upright = least_tilting_spin(motion, spin[1], spin[0], up)
         if _tilt_deg(upright, up) > SPUN_UPRIGHT_DEG:
             return motion, 0.0
-    if _tilt_deg(upright, up) > UPRIGHT_DEG:
-        return motion, 0.0
     start = _height_above_support(cloud0, scene0, up, RESTED_M)
     if start is None:  # nothing beneath it within RESTED_M: it did not rest
         return motion, 0.0
@@ -86,10 +87,7 @@ def least_tilting_spin(motion: Similarity, axis: np.ndarray, point: np.ndarray, 
     a = axis / np.linalg.norm(axis)
     across = up - (up @ a) * a
     A, B = up @ motion.R @ across, up @ motion.R @ np.cross(a, across)
-    angle = float(np.arctan2(B, A))
-    c, s = np.cos(angle), np.sin(angle)
-    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    return motion.turned_first(np.eye(3) + s * K + (1.0 - c) * K @ K, point)  # Rodrigues
+    return motion.turned_first(Rotation.from_rotvec(float(np.arctan2(B, A)) * a).as_matrix(), point)
 
 
 def ball_surface(centre: np.ndarray, radius: float, count: int = 256) -> np.ndarray:
