@@ -16,8 +16,9 @@ goal view cannot show: bench/pairgen/scoring.py), and, for ours, the turns of th
 the error modulo the true symmetry alone is reported beside it (`r_true_*`). A refused pair counts as an infinite
 error. A ball is not scored for rotation.
 
-The refusal: every pair's true motion and its twins under the true symmetry, handed to ground()'s own selection
-as its only hypotheses (ICP polish and view agreement, bench/true_motion.py), gets the score ground() refuses
+The refusal: every pair's true motion and its twins under the true symmetry and under its shape's (ground() judges
+its registration before it reads which of the shape's twins a print shows: seen_turns.py), handed to ground()'s own
+selection as its only hypotheses (ICP polish and view agreement, bench/true_motion.py), gets the score ground() refuses
 below (min_view_score); the report gives that distribution, the share of true motions the threshold would refuse,
 how many of our accepted answers are wrong (beyond 20 mm or 10 deg), how many answers the agreement check refused
 and of those how many would have been right (ground() again with no threshold: the truth's own score, taken where
@@ -213,7 +214,10 @@ def run_pair(entry: dict, features, config) -> dict:
             )
             r["refused_answer"] = errors(unrefused) if unrefused.ok else None
         rec[method] = r
-    rec["true_agreement"] = true_motion_agreement(inp, true_twins(T, truth, R0, pair.centre_camera), config)
+    twins = true_twins(T, truth, R0, pair.centre_camera)
+    if entry["shape"] is not truth:
+        twins += true_twins(T, entry["shape"], R0, pair.centre_camera)
+    rec["true_agreement"] = true_motion_agreement(inp, twins, config)
     return rec
 
 

@@ -1,9 +1,10 @@
 """The score main's grounding would give the true motion: ground()'s own preparation (prepare: goal depth aligned on
 the background, object views) and selection (ICP polish, view agreement times ICP fitness) with each of the true
-motion's twins under the true symmetry (the same goal image, e.g. a can spun about its axis) as its only hypothesis: the
-plain truth of a spun can carries the seen side out of view, so only its best twin says what a right answer
-scores. ground() refuses below GroundingConfig.min_view_score, so the share of true motions under it is the share
-of right answers the refusal would throw away, whatever the search finds."""
+motion's twins (the same goal image, e.g. a can spun about its axis; or, under the shape's symmetry, the same
+geometry, which is all ground()'s refusal judges before it reads a print) as its only hypothesis: the plain truth of
+a spun can carries the seen side out of view, so only its best twin says what a right answer scores. ground()
+refuses below GroundingConfig.min_view_score, so the share of true motions under it is the share of right answers
+the refusal would throw away, whatever the search finds."""
 
 from __future__ import annotations
 

@@ -37,8 +37,9 @@ class Selected:
 
     @property
     def score(self) -> float:
-        """What refusal is judged on: geometric agreement times fitness (colour drifts in an editor's goal)."""
-        return self.agreement.geometry * self.fitness
+        """What refusal is judged on: geometric agreement over all points, the turned-away ones too (Agreement.whole),
+        times fitness (colour drifts in an editor's goal)."""
+        return self.agreement.whole * self.fitness
 
     @property
     def ranked(self) -> float:

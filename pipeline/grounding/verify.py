@@ -7,8 +7,13 @@ or lies behind it (occluded: no evidence); a point the motion turns away from th
 front of the observed surface it contradicts the view too (free space). The same is done backwards, goal cloud into
 the initial view. The shares are the means of the two directions: they separate the right motion from partial-view
 look-alikes that the feature consensus alone cannot tell apart; geometry decides, colour breaks its ties
-(Agreement). How the colours the points bring correlate with those they land on (Agreement.pattern) is what tells a
-printed object from its shape's twins (seen_turns.py): an editor's gain, offset and blur leave it unchanged.
+(Agreement). A motion is judged (Agreement.whole) on the turned-away points too: each must fall inside the other
+view's outline, behind what the camera sees there: a plate turned over or a box tipped onto its seen face shows the
+goal camera none of the points first seen, and the seen points alone leave a right motion with almost no evidence.
+It is judged on the direction that explains less: a small object's cloud lies inside a large one's outline whatever
+the motion, so one direction alone can vouch for a pan moved onto a tomato's mask.
+How the colours the points bring correlate with those they land on (Agreement.pattern) is what tells a printed
+object from its shape's twins (seen_turns.py): an editor's gain, offset and blur leave it unchanged.
 
 The observed depth is matched within a tolerance no finer than the goal depth's own error (DEPTH_SIGMAS of it: a
 model's depth is good to several millimetres, not to a sensor's one).
@@ -17,6 +22,7 @@ model's depth is good to several millimetres, not to a sensor's one).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -44,6 +50,11 @@ class View:
     mask: np.ndarray  # (H, W) bool
     chroma_image: np.ndarray  # (H, W, 3)
     depth_sigma_m: float = 0.0  # standard error of `depth` (a model's goal depth; 0: a sensor's, negligible)
+
+    @cached_property
+    def extent_m(self) -> float:
+        """The cloud's bounding-box diagonal [m]: no point of the object lies farther behind its seen surface."""
+        return float(np.linalg.norm(self.cloud.max(axis=0) - self.cloud.min(axis=0))) if len(self.cloud) else 0.0
 
     def thinned(self, max_points: int) -> View:
         """The view with every k-th point at most `max_points` (the images whole): a coarse check needs the shape,
@@ -92,6 +103,12 @@ class Agreement:
     geometry: float
     colour: float
     pattern: float = 0.0  # the correlation of the colours the points bring with those they land on (-1..1)
+    # the share of all points the views bear out, in the direction that explains less: `geometry`'s, and the
+    # turned-away points inside the other view's outline behind what it sees (no farther than the object's size).
+    # What a motion is judged on: a right motion that turns most seen points away keeps its evidence. Not what
+    # motions are ranked on: every twin of a shape casts the same outline, which would dilute the seen points that
+    # tell them apart
+    whole: float = 0.0
 
     @property
     def ranked(self) -> float:
@@ -109,6 +126,22 @@ class _Landing:
     same_colour: int
     counted: int
     found: np.ndarray  # (N, 3)
+    outlined: int = 0  # turned-away points inside the outline, behind the seen surface
+    outside: int = 0  # turned-away points off the outline or farther behind than the object is deep
+    points: int = 0  # points facing or turned away from the camera, in front of it
+
+    @property
+    def share(self) -> float:
+        """The seen points' share that lands (Agreement.geometry)."""
+        return self.on_object / self.counted
+
+    @property
+    def whole_share(self) -> float:
+        """The share of all points the view bears out (Agreement.whole)."""
+        # at least half of all the points counted, as of the seen ones: a motion that hides the object under the
+        # table or behind something else has no evidence against it either
+        evidence = max(self.counted + self.outlined + self.outside, self.points // 2, 1)
+        return (self.on_object + self.outlined) / evidence
 
 
 def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: float, chroma_tol: float) -> _Landing:
@@ -119,11 +152,13 @@ def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: fl
     # a surface point turned away from the camera cannot be seen, but it cannot float in front of what the camera
     # sees either: a ray through it meets the object there or nearer (free space carved). Without this a motion
     # scores by turning what it cannot explain away (a tray upside down, its floor facing off and floating)
-    carved = _in_front_of_observed(dst, K, X[in_front & (facing > FACING_COS)], CARVE_TOLS * tol_m)
+    away = in_front & (facing > FACING_COS)
+    carved, outlined, outside = _turned_away(dst, K, X[away], tol_m, T.scale * src.extent_m)
     keep = in_front & (facing < -FACING_COS)
+    points = int(np.count_nonzero(away | keep))
     index, X, colour = np.flatnonzero(keep), X[keep], src.chroma[keep]
     if len(X) == 0:
-        return _Landing(0, 0, max(carved, 1), found)
+        return _Landing(0, 0, max(carved, 1), found, outlined, outside, points)
     u, v, inside = image_pixels(K, X)
     outside_count = int((~inside).sum())
     index, u, v, z, colour = index[inside], u[inside], v[inside], X[inside, 2], colour[inside]
@@ -139,15 +174,27 @@ def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: fl
     # a hypothesis that hides most of the object behind the observed surface has little evidence either way:
     # count at least half of the camera-facing points so it cannot score by hiding
     counted = max(evidence, len(X) // 2, 1)
-    return _Landing(int(on_object.sum()), int((on_object & same_colour).sum()), counted, found)
+    same = int((on_object & same_colour).sum())
+    return _Landing(int(on_object.sum()), same, counted, found, outlined, outside, points)
 
 
-def _in_front_of_observed(dst: View, K: CameraIntrinsics, X: np.ndarray, tol_m: float) -> int:
-    """How many points X (N, 3) lie more than tol_m in front of the surface dst's depth sees along their rays."""
+def _turned_away(dst: View, K: CameraIntrinsics, X: np.ndarray, tol_m: float, depth_m: float) -> tuple[int, int, int]:
+    """Of points X (N, 3) turned away from the camera: (carved: more than CARVE_TOLS depth tolerances in front of the
+    surface dst's depth sees along their rays; outlined: the rest of those inside dst's outline, no more than the
+    object's depth `depth_m` behind that surface; outside: off the image, or off the outline no farther than the
+    tolerance behind what is seen there, or on it farther behind than the object is deep). NaN depth, or something
+    else in front: no evidence."""
     if len(X) == 0:
-        return 0
+        return 0, 0, 0
     u, v, inside = image_pixels(K, X)
-    return int(np.sum(X[inside, 2] < dst.depth[v[inside], u[inside]] - tol_m))  # NaN depth: no evidence
+    u, v = u[inside], v[inside]
+    behind, on_mask = X[inside, 2] - dst.depth[v, u], dst.mask[v, u]  # NaN depth: every comparison below false
+    carved = behind < -CARVE_TOLS * tol_m
+    deep = behind > depth_m + tol_m
+    outlined = on_mask & ~carved & (behind <= depth_m + tol_m)
+    stray = ~on_mask & ~carved & (behind <= tol_m)
+    outside = np.count_nonzero(on_mask & deep) + np.count_nonzero(stray) + len(X) - len(u)
+    return np.count_nonzero(carved), np.count_nonzero(outlined), outside
 
 
 def image_pixels(K: CameraIntrinsics, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -193,9 +240,10 @@ def view_evidence(
     bwd = _landing(goal, initial, inverse, K, tol_m, chroma_tol)
     found = np.concatenate([fwd.found, bwd.found])
     agreement = Agreement(
-        0.5 * (fwd.on_object / fwd.counted + bwd.on_object / bwd.counted),
+        0.5 * (fwd.share + bwd.share),
         0.5 * (fwd.same_colour / fwd.counted + bwd.same_colour / bwd.counted),
         pattern_correlation(brought_colours(initial, goal), found),
+        min(fwd.whole_share, bwd.whole_share),
     )
     return agreement, found
 
