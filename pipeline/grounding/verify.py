@@ -138,7 +138,7 @@ class _Landing:
     @property
     def whole_share(self) -> float:
         """The share of all points the view bears out (Agreement.whole)."""
-        # at least half of all the points counted, as of the seen ones: a motion that hides the object under the
+        # at least half of all the points count, as of the seen ones: a motion that hides the object under the
         # table or behind something else has no evidence against it either
         evidence = max(self.counted + self.outlined + self.outside, self.points // 2, 1)
         return (self.on_object + self.outlined) / evidence
