@@ -58,8 +58,8 @@ def test_a_tray_turned_upside_down_does_not_explain_a_view_into_it():
 def test_a_disc_turned_over_is_judged_on_its_outline_too():
     """The goal camera sees a disc's other face: every point first seen faces away, so the seen points alone give
     the right motion no evidence; judged on the whole cloud, it lies inside the goal's outline just behind the face
-    seen there. Slid along the table by its radius (half off the outline) or pushed back by twice its size, it does
-    not."""
+    seen there. Slid along the table by its radius (half off the outline), pushed back by twice its size or also
+    sunk under the table, it does not."""
     up, base = np.array([0.0, -0.6, -0.8]), np.array([0.0, 0.04, 0.5])
     initial, goal = _tray_view(up, base, DISC, base), _tray_view(-up, base + 0.004 * up, DISC, base)
     middle = base + 0.002 * up
@@ -72,3 +72,7 @@ def test_a_disc_turned_over_is_judged_on_its_outline_too():
     assert view_consistency(aside, initial, goal, K, 0.003).whole < 0.5
     back = Similarity(1.0, H, over.t + 0.2 * middle / np.linalg.norm(middle))
     assert view_consistency(back, initial, goal, K, 0.003).whole < 0.1
+    # slid half off and sunk its width under the table: what lies behind the table gives no evidence, yet at least
+    # half of all points count (0.99 if only the points giving evidence did)
+    under = Similarity(1.0, H, aside.t - 0.1 * up)
+    assert view_consistency(under, initial, goal, K, 0.003).whole < 0.5
