@@ -21,6 +21,7 @@ from scipy.spatial.transform import Rotation
 
 from pipeline.contact.symmetry import ball_centre, revolution_axis
 from pipeline.grounding.compare import rotation_deg
+from pipeline.grounding.tilt import tilt_deg
 from pipeline.grounding.types import ObjectMotion
 
 TILT_DEG = 45.0  # a goal tilting the block's vertical more than this turns it over
@@ -72,6 +73,6 @@ def kept_level(motion: ObjectMotion, points_camera: np.ndarray, up_camera: np.nd
     level, _, R, t = min(twins, key=lambda twin: twin[:2])
     if -level <= float((motion.R @ up) @ up):  # on its side either way: no twin is less tilted
         return motion
-    tilt = math.degrees(math.acos(float(np.clip((motion.R @ up) @ up, -1.0, 1.0))))
+    tilt = tilt_deg(motion.R, up)
     why = f"the goal turned the block over ({tilt:.0f} deg): turned back by its half turn, which looks the same"
     return replace(motion, R=R, t=t, details={**motion.details, "kept_level": why})

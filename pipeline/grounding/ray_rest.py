@@ -18,6 +18,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from pipeline.grounding.settle import beneath
+from pipeline.grounding.tilt import tilt_deg
 from pipeline.grounding.umeyama import Similarity
 
 UPRIGHT_DEG = 10.0  # the motion tilts the vertical less than this: its points keep their heights
@@ -56,11 +57,11 @@ def rest_along_ray(
     the same body in the same place, its seen points at other heights)."""
     up = up / np.linalg.norm(up)
     upright = motion
-    if _tilt_deg(motion, up) > UPRIGHT_DEG:  # tipped, unless a level twin with its axis read well enough
+    if tilt_deg(motion.R, up) > UPRIGHT_DEG:  # tipped, unless a level twin with its axis read well enough
         if spin is None:
             return motion, 0.0
         upright = least_tilting_spin(motion, spin[1], spin[0], up)
-        if _tilt_deg(upright, up) > SPUN_UPRIGHT_DEG:
+        if tilt_deg(upright.R, up) > SPUN_UPRIGHT_DEG:
             return motion, 0.0
     start = _height_above_support(cloud0, scene0, up, RESTED_M)
     if start is None:  # nothing beneath it within RESTED_M: it did not rest
@@ -75,10 +76,6 @@ def rest_along_ray(
         return motion, 0.0
     shift = -(now - start) / float(ray @ up)
     return Similarity(motion.scale, motion.R, motion.t + shift * ray), shift
-
-
-def _tilt_deg(motion: Similarity, up: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(np.clip((motion.R @ up) @ up, -1.0, 1.0))))
 
 
 def least_tilting_spin(motion: Similarity, axis: np.ndarray, point: np.ndarray, up: np.ndarray) -> Similarity:

@@ -20,6 +20,11 @@ LEVEL_DEG = 30.0  # tilts up to this are tried without (a tip stands an object o
 NO_BETTER = 0.02  # the tilted motion must explain this much more of the views (geometric agreement) to keep its tilt
 
 
+def tilt_deg(R: np.ndarray, up: np.ndarray) -> float:
+    """How far the rotation `R` tilts the vertical `up` (unit, same frame) [deg]."""
+    return float(np.degrees(np.arccos(np.clip((R @ up) @ up, -1.0, 1.0))))
+
+
 def level_twin(motion: Similarity, up: np.ndarray, centre: np.ndarray) -> Similarity | None:
     """`motion` without its tilt of the vertical `up` (camera frame), turned about where it puts `centre`; None where
     it tilts by more than LEVEL_DEG or by nothing."""
