@@ -34,9 +34,17 @@ if [ -z "$PYTHON" ]; then
 fi
 [ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
 
+NEED_MB=${NEED_MB:-5120}
 stamp=.venv/.setup-stamp
 want=$(sha256sum pyproject.toml setup.sh | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+  # a first install takes about 4 GB (torch, Open3D, Pinocchio, Rerun, Ray): say so rather than fail in pip's OSError
+  free_mb=$(df -Pm . | awk 'NR == 2 {print $4}')
+  if [ ! -e "$stamp" ] && [ "${free_mb:-0}" -lt "$NEED_MB" ]; then
+    echo "setup: ${free_mb} MB free on $(pwd); a first install needs about ${NEED_MB} MB: free some space" \
+      "(NEED_MB=0 bash setup.sh tries anyway)" >&2
+    exit 1
+  fi
   echo "setup: installing Python packages into .venv (about 2 minutes the first time; log: .venv/setup.log)"
   {
     .venv/bin/pip install --upgrade pip &&

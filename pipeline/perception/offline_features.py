@@ -86,14 +86,13 @@ class OfflineFeatures:
         ok = np.all(np.isfinite(query), axis=1)
         if len(support) < 10 or not ok.any():
             return out
-        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(support.astype(np.float64)))
-        pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=self.normal_radius_m, max_nn=30))
-        pcd.orient_normals_towards_camera_location(np.zeros(3))
-        f = o3d.pipelines.registration.compute_fpfh_feature(
-            pcd, o3d.geometry.KDTreeSearchParamHybrid(radius=self.fpfh_radius_m, max_nn=self.fpfh_max_nn)
-        )
+        # Open3D's tensor API: its legacy calls hold the interpreter lock throughout, stalling grounding's other thread
+        pcd = o3d.t.geometry.PointCloud(o3d.core.Tensor(support.astype(np.float64)))
+        pcd.estimate_normals(max_nn=30, radius=self.normal_radius_m)
+        pcd.orient_normals_towards_camera_location(o3d.core.Tensor(np.zeros(3)))
+        f = o3d.t.pipelines.registration.compute_fpfh_feature(pcd, max_nn=self.fpfh_max_nn, radius=self.fpfh_radius_m)
         _, nearest = cKDTree(support).query(query[ok])
-        out[ok] = normalise_rows(np.asarray(f.data).T[nearest])
+        out[ok] = normalise_rows(f.numpy()[nearest])
         return out
 
 

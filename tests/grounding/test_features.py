@@ -94,3 +94,22 @@ def test_offline_features_survive_an_in_plane_turn():
     expected = np.stack([src[:, 1], 95 - src[:, 0]], axis=1)
     hit = np.linalg.norm(dst_all[idx] - expected, axis=1) <= 8
     assert hit.mean() > 0.6
+
+
+def test_offline_surface_descriptors_follow_the_surface_not_the_pose():
+    """The geometric block (FPFH) describes the surface round a pixel whatever its pose: the same pixels of a point
+    map turned and shifted keep their descriptors, and a crease is told from a plane."""
+    from scipy.spatial.transform import Rotation
+
+    v, u = np.mgrid[0:80, 0:80].astype(float)
+    points = np.stack([(u - 40) * 0.002, (v - 40) * 0.002, np.full(u.shape, 0.5)], axis=-1)
+    points[..., 2] -= np.clip(points[..., 0], 0.0, None)  # a crease at column 40: flat, then sloping at 45 deg
+    R = Rotation.from_euler("xy", [25, -15], degrees=True).as_matrix()
+    moved = points @ R.T + np.array([0.03, -0.02, 0.1])
+    pixels = np.array([[10, 40], [20, 8], [40, 40], [62, 40]])  # (u, v): flat, flat, the crease, the slope
+    features = make_feature_extractor("offline", colour_weight=0.0, ring_weight=0.0)
+    grey = np.full((80, 80, 3), 128, np.uint8)
+    before, after = features.extract(grey, pixels, points), features.extract(grey, pixels, moved)
+    assert np.all(np.einsum("ij,ij->i", before, after) > 0.99)
+    assert float(before[0] @ before[1]) > 0.95 and float(before[0] @ before[3]) > 0.95  # planes look alike
+    assert float(before[0] @ before[2]) < 0.8  # a crease does not
