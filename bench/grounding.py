@@ -25,8 +25,9 @@ and of those how many would have been right (ground() again with no threshold: t
 the model's goal depth puts the object, can fall under the threshold where ground()'s answer, moved afterwards by
 the outline and the support, is right). Each of our failures is put down to a cause by the true motion's score:
 the score refuses the truth too (refused, the truth under the threshold), the score prefers a wrong motion (wrong,
-the truth scores no higher than the answer), the search missed it (wrong or refused while the truth scores higher
-and would pass), or another refusal (too few inliers, a residual, the depth fit).
+or refused while the truth would pass, and the truth ranks no higher than the answer on what ground() chooses by:
+select.Selected.ranked, seen points with colour as a tie-break, not the refusal's score), the search missed it (the
+truth ranks higher), or another refusal (too few inliers, a residual, the depth fit).
 
 Timing: wall and CPU time per pair, for ours and the paper's recipe in the same run, and a fixed reference
 workload timed at the start and the end, so figures can be compared across loads (`ms / reference`).
@@ -163,7 +164,7 @@ def raycast_pairs(n: int, seed: int) -> list[dict]:
 
 def run_pair(entry: dict, features, config) -> dict:
     from bench.pairgen.scoring import reported_rotation_error_deg, rotation_error_deg, translation_error_mm
-    from bench.true_motion import true_motion_agreement, true_twins
+    from bench.true_motion import true_motion_scores, true_twins
     from pipeline.grounding.baseline import ground_baseline
     from pipeline.grounding.ground import ground
     from pipeline.grounding.types import GroundingInput
@@ -206,18 +207,23 @@ def run_pair(entry: dict, features, config) -> dict:
             r |= errors(motion)
             if method == "ours":
                 r["agreement"] = motion.details.get("view_score", float("nan"))
+                r["ranked"] = motion.details.get("view_ranked", float("nan"))
         else:
             r["t_mm"] = r["r_deg"] = r["r_true_deg"] = math.inf
         if method == "ours" and _refused_by_agreement(r):  # would the answer refused have been right?
             unrefused = ground(
                 inp, features, config.model_copy(update={"min_view_score": 0.0}), T_base_camera=pair.T_base_camera
             )
-            r["refused_answer"] = errors(unrefused) if unrefused.ok else None
+            r["refused_answer"] = (
+                errors(unrefused) | {"ranked": unrefused.details.get("view_ranked", float("nan"))}
+                if unrefused.ok
+                else None
+            )
         rec[method] = r
     twins = true_twins(T, truth, R0, pair.centre_camera)
     if entry["shape"] is not truth:
         twins += true_twins(T, entry["shape"], R0, pair.centre_camera)
-    rec["true_agreement"] = true_motion_agreement(inp, twins, config)
+    rec["true_agreement"], rec["true_ranked"] = true_motion_scores(inp, twins, config)
     return rec
 
 
@@ -289,18 +295,23 @@ def _refused_by_agreement(o: dict) -> bool:
 
 
 def failure_causes(records: list[dict], threshold: float) -> dict[str, int]:
-    """Our failures (refused or wrong) by what the true motion's score says of them (module docstring)."""
+    """Our failures (refused or wrong) by what the true motion's scores say of them (module docstring): which of the
+    truth and the answer ranks higher (Selected.ranked, what ground() chose on) tells the search's failures from the
+    ranking's; a refused answer is the one ground() gives with no threshold."""
     causes = dict.fromkeys(("score_refuses_truth", "score_prefers_wrong", "search_missed", "other_refusal"), 0)
     for r in records:
-        o, truth = r["ours"], r["true_agreement"]
+        o, truth = r["ours"], r["true_ranked"]
         if o["ok"] and not _wrong(o):
             continue
         if o["ok"]:
-            causes["search_missed" if truth > o["agreement"] else "score_prefers_wrong"] += 1
+            causes["search_missed" if truth > o["ranked"] else "score_prefers_wrong"] += 1
         elif not _refused_by_agreement(o):
             causes["other_refusal"] += 1
+        elif r["true_agreement"] < threshold:
+            causes["score_refuses_truth"] += 1
         else:
-            causes["search_missed" if truth >= threshold else "score_refuses_truth"] += 1
+            answer = o.get("refused_answer")
+            causes["search_missed" if answer is None or truth > answer["ranked"] else "score_prefers_wrong"] += 1
     return causes
 
 
@@ -365,7 +376,7 @@ def print_set(console: Console, name: str, records: list[dict], summary: dict) -
     causes = tm["failure_causes"]
     console.print(
         f"our failures by cause: the score refuses the true motion too {causes['score_refuses_truth']}, prefers a "
-        f"wrong motion {causes['score_prefers_wrong']}; the search missed a motion that scores higher "
+        f"wrong motion {causes['score_prefers_wrong']}; the search missed a motion that ranks higher "
         f"{causes['search_missed']}; other refusals {causes['other_refusal']}"
     )
 

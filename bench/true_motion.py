@@ -4,7 +4,8 @@ motion's twins (the same goal image, e.g. a can spun about its axis; or, under t
 geometry, which is all ground()'s refusal judges before it reads a print) as its only hypothesis: the plain truth of
 a spun can carries the seen side out of view, so only its best twin says what a right answer scores. ground()
 refuses below GroundingConfig.min_view_score, so the share of true motions under it is the share of right answers
-the refusal would throw away, whatever the search finds."""
+the refusal would throw away, whatever the search finds; what the truth ranks on against other hypotheses, beside
+the answer's, tells a failure of the ranking from one of the search."""
 
 from __future__ import annotations
 
@@ -42,14 +43,16 @@ def true_twins(
     return out
 
 
-def true_motion_agreement(inp: GroundingInput, twins: list[Similarity], cfg: GroundingConfig) -> float:
-    """View agreement (0..1) ground() would give the best of the true motion's twins (true_twins); 0 when ground()
+def true_motion_scores(inp: GroundingInput, twins: list[Similarity], cfg: GroundingConfig) -> tuple[float, float]:
+    """(the view agreement ground() would refuse the best of the true motion's twins (true_twins) on, what the best
+    of them would rank on against other hypotheses: select.Selected.score and .ranked, 0..1); zeros when ground()
     would refuse before scoring any motion (the goal depth does not fit the scene, too few object pixels)."""
     if cfg.work_width_px is not None and cfg.work_width_px < inp.intrinsics.width:
         inp = inp.resized(cfg.work_width_px)
     pp = prepare(inp, cfg)
     if isinstance(pp, ObjectMotion):
-        return 0.0
+        return 0.0, 0.0
     # each twin on its own: ground()'s coarse ranking keeps only a few, and a look-alike twin may push out the one
     # that keeps the seen side in view
-    return max(float(select_motion([twin], pp.view0, pp.view1, inp.intrinsics, pp.size, cfg).score) for twin in twins)
+    selected = [select_motion([twin], pp.view0, pp.view1, inp.intrinsics, pp.size, cfg) for twin in twins]
+    return max(float(s.score) for s in selected), max(float(s.ranked) for s in selected)

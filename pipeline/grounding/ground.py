@@ -200,6 +200,7 @@ def _ground(
         details={
             "depth_alignment": align.summary(),
             "view_score": view_score,
+            "view_ranked": chosen.ranked,  # what it won on against the other hypotheses (select.Selected.ranked)
             "threshold_m": threshold,
             **({"hint_taken": True} if hinted else {}),
             **({"turns_margin": turns_margin} if turns_margin is not None else {}),

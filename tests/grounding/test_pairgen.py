@@ -156,28 +156,35 @@ def test_the_bench_tells_the_motion_kind_the_generator_made():
 
 
 def test_the_bench_puts_each_failure_down_to_the_score_or_the_search():
-    """A failure the true motion's score would have avoided is the search's; one it shares is the score's."""
+    """A failure where the truth ranks higher than the answer (what ground() chooses on) is the search's; one where it
+    ranks no higher is the ranking's, whatever the refusal's score says; a refusal the truth shares is the score's."""
     from bench.grounding import failure_causes
 
-    def record(ok: bool, truth: float, agreement: float = 0.0, t_mm: float = 1.0, reason: str = "") -> dict:
+    def record(
+        ok: bool, truth: tuple[float, float], ranked: float, t_mm: float = 1.0, reason: str = "", answer=None
+    ) -> dict:
+        """truth: (its refusal score, what it ranks on); ranked: the answer's."""
         ours = {"ok": ok, "reason": reason, "t_mm": t_mm if ok else math.inf, "r_deg": 1.0 if ok else math.inf}
-        return {"ours": ours | ({"agreement": agreement} if ok else {}), "true_agreement": truth}
+        ours |= {"agreement": 0.5, "ranked": ranked} if ok else {"refused_answer": answer}
+        return {"ours": ours, "true_agreement": truth[0], "true_ranked": truth[1]}
 
     agreement = "the motion does not explain the images: view agreement 0.2 (need 0.4)"
+    refused_answer = {"t_mm": 50.0, "r_deg": 30.0, "ranked": 0.5}
     records = [
-        record(True, 0.9, 0.8),  # right: no failure
-        record(True, 0.9, 0.8, t_mm=50.0),  # wrong, the truth scores higher: the search missed it
-        record(True, 0.6, 0.5, t_mm=50.0),
-        record(True, 0.5, 0.8, t_mm=50.0),  # wrong, the truth scores lower: the score prefers the wrong motion
-        record(True, 0.7, 0.7, t_mm=50.0),  # ... or no higher
-        record(False, 0.2, reason=agreement),  # refused and the truth would be refused too
-        record(False, 0.1, reason=agreement),
-        record(False, 0.6, reason=agreement),  # refused while the truth would pass: the search missed it
-        record(False, 0.6, reason="too few inliers: 3 of 90"),
+        record(True, (0.9, 0.9), 0.8),  # right: no failure
+        record(True, (0.9, 0.9), 0.8, t_mm=50.0),  # wrong, the truth ranks higher: the search missed it
+        record(True, (0.2, 0.6), 0.5, t_mm=50.0),  # ... whatever its refusal score
+        record(True, (0.9, 0.5), 0.8, t_mm=50.0),  # wrong, the truth ranks lower: the ranking prefers the wrong motion
+        record(True, (0.9, 0.7), 0.7, t_mm=50.0),  # ... or no higher
+        record(False, (0.2, 0.9), 0.0, reason=agreement, answer=refused_answer),  # the truth refused too
+        record(False, (0.1, 0.1), 0.0, reason=agreement, answer=refused_answer),
+        record(False, (0.6, 0.7), 0.0, reason=agreement, answer=refused_answer),  # the truth passes, ranks higher
+        record(False, (0.6, 0.4), 0.0, reason=agreement, answer=refused_answer),  # it passes but ranks lower
+        record(False, (0.6, 0.6), 0.0, reason="too few inliers: 3 of 90"),
     ]
     assert failure_causes(records, 0.4) == {
         "score_refuses_truth": 2,
-        "score_prefers_wrong": 2,
+        "score_prefers_wrong": 3,
         "search_missed": 3,
         "other_refusal": 1,
     }
@@ -194,7 +201,7 @@ def test_the_bench_counts_the_right_answers_the_agreement_refused():
     def record(answer: dict | None) -> dict:
         ours = refusal | refused | {"refused_answer": answer}
         paper = {"ok": True, "t_mm": 1.0, "r_deg": 1.0, "r_true_deg": 1.0, "ms": 1.0, "cpu_ms": 1.0}
-        return {"ours": ours, "paper": paper, "true_agreement": 0.1}
+        return {"ours": ours, "paper": paper, "true_agreement": 0.1, "true_ranked": 0.1}
 
     right = {"t_mm": 2.0, "r_deg": 1.0, "r_true_deg": 1.0, "symmetry": "none"}
     records = [record(right), record(right | {"t_mm": 50.0}), record(right | {"r_deg": 30.0}), record(None)]
