@@ -193,7 +193,7 @@ def slid(rotations: np.ndarray, t: np.ndarray, view0: View, view1: View) -> np.n
         dist, j = tree.query(X.reshape(-1, 3))
         dist, j = dist.reshape(m, k), j.reshape(m, k)
         w = (dist <= np.percentile(dist, 70, axis=1, keepdims=True)).astype(float)[..., None]
-        n = view1.normals[j] * w  # (24, N, 3), far pairs weighted out
+        n = view1.normals[j] * w  # (M, N, 3), far pairs weighted out
         r = np.einsum("mki,mki->mk", n, view1.cloud[j] - X)
         A = np.einsum("mki,mkj->mij", n, n) + 1e-3 * k * np.eye(3)
         t = t + np.linalg.solve(A, np.einsum("mki,mk->mi", n, r)[..., None])[..., 0]  # point-to-plane, shift only
