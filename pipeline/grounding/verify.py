@@ -2,16 +2,17 @@
 
 The initial object cloud, moved by the hypothesis, is projected into the goal view; each point that should be
 visible (its normal faces the camera) either lands on the goal object at the observed depth (agreement; with the
-observed colour too: colour agreement), lies in front of the observed surface or off the goal mask (contradiction),
-or lies behind it (occluded: no evidence); a point the motion turns away from the camera is unseen, yet well in
-front of the observed surface it contradicts the view too (free space). The same is done backwards, goal cloud into
-the initial view. The shares are the means of the two directions: they separate the right motion from partial-view
-look-alikes that the feature consensus alone cannot tell apart; geometry decides, colour breaks its ties
-(Agreement). A motion is judged (Agreement.whole) on the turned-away points too: each must fall inside the other
-view's outline, behind what the camera sees there: a plate turned over or a box tipped onto its seen face shows the
-goal camera none of the points first seen, and the seen points alone leave a right motion with almost no evidence.
-It is judged on the direction that explains less: a small object's cloud lies inside a large one's outline whatever
-the motion, so one direction alone can vouch for a pan moved onto a tomato's mask.
+observed colour too: colour agreement), lies in front of the observed surface (well in front, where a model's depth
+is compared: CARVE_TOLS) or off the goal mask (contradiction), or lies behind it (occluded: no evidence); a point
+the motion turns away from the camera is unseen, yet well in front of the observed surface it contradicts the view
+too (free space). The same is done backwards, goal cloud into the initial view. The shares are the means of the two
+directions: they separate the right motion from partial-view look-alikes that the feature consensus alone cannot
+tell apart; geometry decides, colour breaks its ties (Agreement). A motion is judged (Agreement.whole) on the
+turned-away points too: each must fall inside the other view's outline, behind what the camera sees there: a plate
+turned over or a box tipped onto its seen face shows the goal camera none of the points first seen, and the seen
+points alone leave a right motion with almost no evidence. It is judged on the direction that explains less: a small
+object's cloud lies inside a large one's outline whatever the motion, so one direction alone can vouch for a pan
+moved onto a tomato's mask.
 How the colours the points bring correlate with those they land on (Agreement.pattern) is what tells a printed
 object from its shape's twins (seen_turns.py): an editor's gain, offset and blur leave it unchanged.
 
@@ -35,7 +36,10 @@ MIN_PATTERN_POINTS = 20  # fewer points on the object than this say nothing abou
 FACING_COS = 0.1  # a point this far from grazing (cosine of its normal to its ray) faces toward or away from the camera
 # a point turned away from the camera contradicts the view only this many depth tolerances in front of what it sees:
 # a right motion's far side lies behind the seen surface by the object's thickness, except at the outline, where a
-# model's depth bleeds toward the background
+# model's depth bleeds toward the background. Where either view's depth is a model's, a point facing the camera is
+# held to the same margin in front of the object's surface: a model fills a hollow from its rim (a mug's inside
+# floated 1-5 cm above its floor, and a right motion's points there contradicted the capture's measured floor) and
+# bleeds the outline toward what lies behind
 CARVE_TOLS = 3.0
 
 
@@ -165,12 +169,14 @@ def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: fl
     d = dst.depth[v, u]
     known = np.isfinite(d)
     index, u, v, z, d, colour = index[known], u[known], v[known], z[known], d[known], colour[known]
-    occluded = z > d + tol_m
     on_object = dst.mask[v, u] & (np.abs(z - d) <= tol_m)
+    silent = z > d + tol_m  # occluded
+    if src.depth_sigma_m > 0 or dst.depth_sigma_m > 0:  # a model's depth: in front is said only by the carve's margin
+        silent |= dst.mask[v, u] & (z >= d - CARVE_TOLS * tol_m) & ~on_object
     there = dst.chroma_image[v, u]
     same_colour = np.linalg.norm(there - colour, axis=1) < chroma_tol
     found[index[on_object]] = there[on_object]
-    evidence = int((~occluded).sum()) + outside_count + carved
+    evidence = int((~silent).sum()) + outside_count + carved
     # a hypothesis that hides most of the object behind the observed surface has little evidence either way:
     # count at least half of the camera-facing points so it cannot score by hiding
     counted = max(evidence, len(X) // 2, 1)

@@ -76,3 +76,27 @@ def test_a_disc_turned_over_is_judged_on_its_outline_too():
     # half of all points count (0.99 if only the points giving evidence did)
     under = Similarity(1.0, H, aside.t - 0.1 * up)
     assert view_consistency(under, initial, goal, K, 0.003).whole < 0.5
+
+
+def test_a_models_depth_filling_a_hollow_does_not_contradict_the_right_motion():
+    """A model's goal depth fills a tray's hollow from its rim: its floor floats above the measured one. Brought back
+    by the right motion, the goal's floor points lie in front of the floor the capture measured, by less than the
+    carve's margin: no evidence either way for a model's depth, a contradiction for a sensor's."""
+    up, base = np.array([0.0, -0.6, -0.8]), np.array([0.0, 0.04, 0.5])
+    capture = _tray_view(up, base)
+    off = K.unproject_depth_image(np.where(capture.mask, capture.depth, 0.0)) - base
+    height = off @ up
+    floor = capture.mask & (height < 0.008) & (np.linalg.norm(off - height[..., None] * up, axis=-1) < 0.03)
+    filled = np.where(floor, capture.depth - 0.01, capture.depth)  # 1 cm toward the camera: 2 tolerances of 5 mm
+    cloud = K.unproject_depth_image(filled)[capture.mask]
+
+    def goal(sigma_m: float):
+        chroma = capture.chroma_image
+        return make_view(cloud, chroma[capture.mask], filled, capture.mask, chroma, 0.003, sigma_m)
+
+    still = Similarity(1.0, np.eye(3), np.zeros(3))
+    model = view_consistency(still, capture, goal(0.002), K, 0.003).geometry
+    sensor = view_consistency(still, capture, goal(0.0), K, 0.005).geometry
+    assert 0.2 * capture.mask.sum() < floor.sum() < 0.5 * capture.mask.sum()
+    assert model > 0.99  # 1 cm in front of the floor, on the floor's third of the tray
+    assert sensor < model - 0.1
