@@ -2,8 +2,8 @@
 
 The initial object cloud, moved by the hypothesis, is projected into the goal view; each point that should be
 visible (its normal faces the camera) either lands on the goal object at the observed depth (agreement; with the
-observed colour too: colour agreement), lies in front of the observed surface (well in front, where a model's depth
-is compared: CARVE_TOLS) or off the goal mask (contradiction), or lies behind it (occluded: no evidence); a point
+observed colour too: colour agreement), lies in front of the observed surface (well in front, for a point of a
+model's depth: CARVE_TOLS) or off the goal mask (contradiction), or lies behind it (occluded: no evidence); a point
 the motion turns away from the camera is unseen, yet well in front of the observed surface it contradicts the view
 too (free space). The same is done backwards, goal cloud into the initial view. The shares are the means of the two
 directions: they separate the right motion from partial-view look-alikes that the feature consensus alone cannot
@@ -36,10 +36,10 @@ MIN_PATTERN_POINTS = 20  # fewer points on the object than this say nothing abou
 FACING_COS = 0.1  # a point this far from grazing (cosine of its normal to its ray) faces toward or away from the camera
 # a point turned away from the camera contradicts the view only this many depth tolerances in front of what it sees:
 # a right motion's far side lies behind the seen surface by the object's thickness, except at the outline, where a
-# model's depth bleeds toward the background. Where either view's depth is a model's, a point facing the camera is
-# held to the same margin in front of the object's surface: a model fills a hollow from its rim (a mug's inside
-# floated 1-5 cm above its floor, and a right motion's points there contradicted the capture's measured floor) and
-# bleeds the outline toward what lies behind
+# model's depth bleeds toward the background. A point of a model's depth (the goal's, brought back) that faces the
+# camera is held to the same margin in front of the surface it lands on: a model fills a hollow from its rim (a
+# mug's inside floated 1-5 cm above its floor, and the right motion's points there contradicted the capture's
+# measured floor)
 CARVE_TOLS = 3.0
 
 
@@ -171,7 +171,7 @@ def _landing(src: View, dst: View, T: Similarity, K: CameraIntrinsics, tol_m: fl
     index, u, v, z, d, colour = index[known], u[known], v[known], z[known], d[known], colour[known]
     on_object = dst.mask[v, u] & (np.abs(z - d) <= tol_m)
     silent = z > d + tol_m  # occluded
-    if src.depth_sigma_m > 0 or dst.depth_sigma_m > 0:  # a model's depth: in front is said only by the carve's margin
+    if src.depth_sigma_m > 0:  # a model's points: in front is said only by the carve's margin
         silent |= dst.mask[v, u] & (z >= d - CARVE_TOLS * tol_m) & ~on_object
     there = dst.chroma_image[v, u]
     same_colour = np.linalg.norm(there - colour, axis=1) < chroma_tol

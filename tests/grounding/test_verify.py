@@ -81,7 +81,7 @@ def test_a_disc_turned_over_is_judged_on_its_outline_too():
 def test_a_models_depth_filling_a_hollow_does_not_contradict_the_right_motion():
     """A model's goal depth fills a tray's hollow from its rim: its floor floats above the measured one. Brought back
     by the right motion, the goal's floor points lie in front of the floor the capture measured, by less than the
-    carve's margin: no evidence either way for a model's depth, a contradiction for a sensor's."""
+    carve's margin: no evidence either way from a model's depth, a contradiction from a sensor's."""
     up, base = np.array([0.0, -0.6, -0.8]), np.array([0.0, 0.04, 0.5])
     capture = _tray_view(up, base)
     off = K.unproject_depth_image(np.where(capture.mask, capture.depth, 0.0)) - base
