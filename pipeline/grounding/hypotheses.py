@@ -129,7 +129,7 @@ def coarse_scores(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Score each rotation, with the translation that aligns the cloud centroids, initial -> goal and back.
     Returns scores (M,) in 0..1 and translations (M, 3)."""
-    s0, s1 = max(1, len(view0.cloud) // MAX_POINTS), max(1, len(view1.cloud) // MAX_POINTS)
+    s0, s1 = coarse_step(len(view0.cloud)), coarse_step(len(view1.cloud))
     p0, n0, k0 = view0.cloud[::s0], view0.normals[::s0], view0.chroma[::s0]
     p1, n1, k1 = view1.cloud[::s1], view1.normals[::s1], view1.chroma[::s1]
     p0, n0, p1, n1 = (a.astype(np.float32) for a in (p0, n0, p1, n1))  # float32 halves the memory traffic
@@ -165,6 +165,11 @@ def face_frame(normals: np.ndarray) -> np.ndarray | None:
     return np.stack([a, b, np.cross(a, b)], axis=1)
 
 
+def coarse_step(points: int) -> int:
+    """Every how many of a cloud's `points` a coarse check takes: MAX_POINTS to twice as many (all of a smaller one)."""
+    return max(1, points // MAX_POINTS)
+
+
 def face_hypotheses(view0: View, view1: View) -> list[Similarity]:
     """Motions that carry the initial view's face frame onto the goal view's, for each way the axes can map
     (24): exact, up to sensor noise, for box-like objects, however far they turned; centroids aligned."""
@@ -172,7 +177,7 @@ def face_hypotheses(view0: View, view1: View) -> list[Similarity]:
     if F0 is None or F1 is None:
         return []
     rotations = F1 @ AXIS_MAPS @ F0.T
-    p0 = view0.cloud[:: max(1, len(view0.cloud) // MAX_POINTS)]
+    p0 = view0.cloud[:: coarse_step(len(view0.cloud))]
     t = view1.cloud.mean(axis=0) - (p0 @ rotations.transpose(0, 2, 1)).mean(axis=1)
     return [Similarity(1.0, R, tt) for R, tt in zip(rotations, slid(rotations, t, view0, view1), strict=True)]
 
@@ -185,7 +190,7 @@ def slid(rotations: np.ndarray, t: np.ndarray, view0: View, view1: View) -> np.n
     from scipy.spatial import cKDTree
 
     tree = cKDTree(view1.cloud)
-    p0 = view0.cloud[:: max(1, len(view0.cloud) // MAX_POINTS)]
+    p0 = view0.cloud[:: coarse_step(len(view0.cloud))]
     moved = p0 @ rotations.transpose(0, 2, 1)  # (M, N, 3)
     m, k = moved.shape[:2]
     for _ in range(SHIFT_ITERATIONS):  # partial views: the centroids differ; slide onto the goal's faces
@@ -261,7 +266,8 @@ def sweep_hypotheses(
     scores, t = coarse_scores(rotations, view0, view1, closeness0, closeness1, K, tol)
     order = np.argsort(-scores)
     distinct = order[_distinct(rotations[order], SEED_SEPARATION_DEG, DISTINCT_PEAKS)]
-    ranked = (list(distinct) + [k for k in order[:keep] if k not in set(distinct)])[:keep]
+    peaks = set(distinct)
+    ranked = (list(distinct) + [k for k in order[:keep] if k not in peaks])[:keep]
     if not ranked:
         return []
     shifts = slid(rotations[ranked], t[ranked], view0, view1)
