@@ -43,6 +43,10 @@ OUTLINE_REACH_REL = 0.25  # of the typical reach: a handle reaches further (rayc
 OPEN_INWARD_SHARE = 0.1  # a body of revolution with this many points facing its axis is seen into: open at one end
 BOX_FACE_FILL = 0.88  # each seen face of MIN_FACE_POINTS fills its rectangle this well (a disc fills pi/4 of it)
 MIN_FACE_POINTS = 100
+# a face of fewer points (a small box's, a few dozen) that fills its rectangle as well shows a box too, but one that
+# does not rules nothing out: a sparse face's hull falls short of its rectangle by its ragged edges (small raycast
+# cubes read as none, their faces of 80-96 points filling 0.87-0.89)
+SPARSE_FACE_POINTS = 30
 SUPPORT_RING_PX = (4, 12)  # the ring around the mask that shows what the object stands on (inner, outer)
 SUPPORT_CLEARANCE_M = 0.005
 # a part this far from the rest of the seen points (through any chain of them) is not on the object: what the mask
@@ -308,8 +312,9 @@ def _same_sides(sides: np.ndarray) -> np.ndarray:
 
 
 def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
-    """Whether each face seen (points whose normal is along a frame axis) fills the smallest rectangle round it in the
-    face's plane (BOX_FACE_FILL): a disc, a pan's bottom, a can's cap do not. The smallest, not the one along the
+    """Whether the faces seen (points whose normal is along a frame axis) fill the smallest rectangle round each in the
+    face's plane (BOX_FACE_FILL): every face of MIN_FACE_POINTS, and one at least, a sparse one too
+    (SPARSE_FACE_POINTS); a disc, a pan's bottom, a can's cap do not. The smallest, not the one along the
     frame's other axes: the frame, read from noisy normals, can sit a few degrees off a face's edges, and a face
     twice as long as it is wide then fills under 0.85 of the frame's rectangle (raycast boxes read as none)."""
     from scipy.spatial import ConvexHull, QhullError
@@ -317,7 +322,7 @@ def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
     seen = 0
     for k in range(3):
         face = np.abs(local_normals[:, k]) > np.cos(np.radians(FACE_TOL_DEG))
-        if face.sum() < MIN_FACE_POINTS:  # a few dozen points' hull falls short of their rectangle
+        if face.sum() < SPARSE_FACE_POINTS:
             continue
         flat = np.delete(local[face], k, axis=1)
         (_, _), (w, h), _ = cv2.minAreaRect(flat.astype(np.float32))
@@ -326,9 +331,10 @@ def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
             hull = float(ConvexHull(flat).volume)
         except QhullError:
             return False
-        if area <= 0 or hull < BOX_FACE_FILL * area:
+        fills = area > 0 and hull >= BOX_FACE_FILL * area
+        if not fills and face.sum() >= MIN_FACE_POINTS:
             return False
-        seen += 1
+        seen += fills
     return seen > 0
 
 
