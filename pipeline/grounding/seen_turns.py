@@ -90,7 +90,9 @@ def read_turns(
     # twins within a spin step of the best are its neighbours on a continuous spin, not rivals: the finer spin
     # search below settles between them
     rivals = [j for j in range(len(twins)) if rotation_deg(turns[best].T @ turns[j]) > SPIN_STEP_DEG + 1.0]
-    margin = min((beats(best, j) for j in rivals), default=float("inf"))
+    # with no rival left (each put the object elsewhere: turned about a centre or axis the capture reads a few
+    # millimetres off), the print was never compared and tells nothing: the shape's symmetry goes with the motion
+    margin = min((beats(best, j) for j in rivals), default=0.0)
     if margin < TOLD_APART:
         return twins[best], replace(shape, print_unread=True), margin
     chosen = twins[best]

@@ -63,6 +63,18 @@ def test_a_print_neither_twin_follows_tells_none_apart():
     np.testing.assert_allclose(motion.R, np.eye(3))
 
 
+def test_twins_that_all_put_the_object_elsewhere_leave_the_print_unread():
+    """A centre read 10 cm off: the half-turned twin lands the tile beside its goal and is no rival, so the print
+    was never compared; the motion goes with the shape's turns (it was reported read, and 120-150 deg off on raycast
+    bottles)."""
+    shape = _tile()
+    shape = SeenSymmetry("box", shape.centre + np.array([0.1, 0.0, 0.0]), rotations=shape.rotations, shape_kind="box")
+    still = Similarity(1.0, np.eye(3), np.zeros(3))
+    motion, seen, margin = read_turns(still, shape, _view(_printed()), _view(_printed()), K, 0.004)
+    np.testing.assert_allclose(motion.R, np.eye(3))
+    assert seen.kind == "box" and seen.print_unread and margin < 0.1
+
+
 def test_a_can_ends_alike_is_spun_and_flipped():
     can = SeenSymmetry("revolution_ends_alike", np.zeros(3), axis=np.array([0.0, 0.0, 1.0]))
     turns = shape_turns(can)
