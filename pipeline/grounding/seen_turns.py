@@ -4,7 +4,8 @@ A can spun about its axis, a box turned half way, a ball turned any way: the see
 apart; a print can. Twins are compared by their print alone (Agreement.pattern: how the colours their points bring
 correlate with those they land on, which an editor's gain, offset and blur do not change): the shape is the same
 under each turn, and geometry only rewards a twin that keeps the seen side in view. Where no twin's print stands
-out from every other's, the shape's symmetry goes with the motion, flagged print_unread, so that planning and
+out from every other's, and from the views compared pixel for pixel as they are (a shadow cast on the object stays
+put in the image), the shape's symmetry goes with the motion, flagged print_unread, so that planning and
 verification leave that turn alone instead of trusting a coin toss. Only an object whose print shows is read: a
 plain one keeps its shape's symmetry.
 """
@@ -21,7 +22,14 @@ from pipeline.grounding.compare import half_turn_across, rotation_deg, spins_abo
 from pipeline.grounding.hypotheses import AXIS_MAPS
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import View, brought_colours, pattern_correlation, view_consistency, view_evidence
+from pipeline.grounding.verify import (
+    View,
+    brought_colours,
+    image_pixels,
+    pattern_correlation,
+    view_consistency,
+    view_evidence,
+)
 
 TOLD_APART = 0.1  # a twin's print correlates this much better than every other's ...
 HALF_AS_WELL = 0.5  # ... and every other's correlates under this share of it: the views tell it apart
@@ -56,7 +64,8 @@ def read_turns(
 ) -> tuple[Similarity, SeenSymmetry, float]:
     """(the twin of a printed object's `motion` under the shape's turns whose print best follows the views, the
     symmetry to report with it, the margin by which its print beats the next twin's): the `shape` symmetry flagged
-    print_unread where no twin's print stands out by TOLD_APART, none where one does.
+    print_unread where no twin's print stands out by TOLD_APART (from the other twins' and from the views left as they
+    are, left_in_place), none where one does.
 
     Twins are ranked by their print alone (Agreement.pattern): the shape is the same under each turn, and what
     geometry adds is which side of the object stays in view: a can truly turned half way carries its seen side out
@@ -95,10 +104,35 @@ def read_turns(
     margin = min((beats(best, j) for j in rivals), default=0.0)
     if margin < TOLD_APART:
         return twins[best], replace(shape, print_unread=True), margin
-    chosen = twins[best]
+    chosen, found = twins[best], landed[best]
     if shape.axis is not None:
         chosen = _finer_spin(chosen, shape, float(pattern[best]), view0, view1, K, tol_m)
+        found = view_evidence(chosen, view0, view1, K, tol_m)[1]
+    # what stays put in the image (a neighbour's shadow, a highlight, the light's fall-off) correlates under any twin
+    # that leaves the points where they were: the print tells the twin only where it beats the views compared pixel
+    # for pixel, as they are (a faintly printed plate turned in place under a neighbour's shadow was read 123 deg off)
+    in_place = left_in_place(view0, view1, K)
+    both = np.isfinite(found[:, 0]) & np.isfinite(in_place[:, 0])
+    margin = min(
+        margin, pattern_correlation(brought[both], found[both]) - pattern_correlation(brought[both], in_place[both])
+    )
+    if margin < TOLD_APART:
+        return twins[best], replace(shape, print_unread=True), margin
     return chosen, SeenSymmetry("none", shape.centre, shape_kind=shape.kind), margin
+
+
+def left_in_place(view0: View, view1: View, K: CameraIntrinsics) -> np.ndarray:
+    """The colour each point of either view finds at its own pixel in the other view, where that shows the object
+    (NaN elsewhere; in the order of brought_colours): the views compared as they are, with no motion."""
+    found = []
+    for src, dst in ((view0, view1), (view1, view0)):
+        here = np.full(src.chroma.shape, np.nan)
+        u, v, inside = image_pixels(K, src.cloud)
+        on = np.zeros(len(src.cloud), dtype=bool)
+        on[inside] = dst.mask[v[inside], u[inside]]
+        here[on] = dst.chroma_image[v[on], u[on]]
+        found.append(here)
+    return np.concatenate(found)
 
 
 def _finer_spin(

@@ -34,13 +34,33 @@ def _tile() -> SeenSymmetry:
     return SeenSymmetry("box", centre, rotations=np.array([np.eye(3), HALF]), shape_kind="box")
 
 
+def _slid_view(chroma: np.ndarray, px: int):
+    """The tile and its print slid `px` pixels to the right in the image, at the same depth."""
+    mask, depth = np.roll(OBJ, px, axis=1), np.roll(DEPTH, px, axis=1)
+    cloud = K.unproject_depth_image(depth)[mask]
+    shifted = np.roll(chroma, px, axis=1)
+    return make_view(cloud, shifted[mask], depth, mask, shifted, 0.004)
+
+
 def test_the_print_turns_a_half_turned_twin_back_and_is_reported_read():
     shape = _tile()
-    wrong = Similarity(1.0, HALF, shape.centre - HALF @ shape.centre)  # turned half way: the shape cannot tell
+    slide = np.array([0.8 * 12 / 80.0, 0.0, 0.0])  # 12 px at 0.8 m
+    wrong = Similarity(1.0, HALF, shape.centre - HALF @ shape.centre + slide)  # turned half way: the shape cannot tell
+    motion, seen, margin = read_turns(wrong, shape, _view(_printed()), _slid_view(_printed(), 12), K, 0.004)
+    np.testing.assert_allclose(motion.R, np.eye(3), atol=1e-9)
+    np.testing.assert_allclose(motion.apply(shape.centre[None])[0], shape.centre + slide, atol=1e-9)
+    assert seen.kind == "none" and seen.shape_kind == "box" and margin > 0.1
+
+
+def test_a_print_that_stays_put_in_the_image_tells_no_turn():
+    """The tile left where it was: its print follows the views under the unturned twin exactly as the two images
+    compared pixel for pixel do, as a shadow cast on a plate turned in place does (read 123 deg off before): the
+    motion is still turned back, but the shape's turns are reported."""
+    shape = _tile()
+    wrong = Similarity(1.0, HALF, shape.centre - HALF @ shape.centre)
     motion, seen, margin = read_turns(wrong, shape, _view(_printed()), _view(_printed()), K, 0.004)
     np.testing.assert_allclose(motion.R, np.eye(3), atol=1e-9)
-    np.testing.assert_allclose(motion.apply(shape.centre[None])[0], shape.centre, atol=1e-9)
-    assert seen.kind == "none" and seen.shape_kind == "box" and margin > 0.1
+    assert seen.kind == "box" and seen.print_unread and margin < 0.1
 
 
 def test_a_print_the_goal_lost_leaves_the_shapes_turns_reported():
