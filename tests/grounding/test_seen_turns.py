@@ -18,9 +18,11 @@ DEPTH = np.where(OBJ, 0.8, 1.0).astype(np.float32)
 HALF = np.diag([-1.0, -1.0, 1.0])  # half a turn about the viewing axis
 
 
-def _view(chroma: np.ndarray):
-    cloud = K.unproject_depth_image(DEPTH)[OBJ]
-    return make_view(cloud, chroma[OBJ], DEPTH, OBJ, chroma, 0.004)
+def _view(chroma: np.ndarray, slid_px: int = 0):
+    """The tile with its print, slid `slid_px` pixels to the right in the image at the same depth."""
+    mask, depth, chroma = (np.roll(a, slid_px, axis=1) for a in (OBJ, DEPTH, chroma))
+    cloud = K.unproject_depth_image(depth)[mask]
+    return make_view(cloud, chroma[mask], depth, mask, chroma, 0.004)
 
 
 def _printed() -> np.ndarray:
@@ -34,19 +36,11 @@ def _tile() -> SeenSymmetry:
     return SeenSymmetry("box", centre, rotations=np.array([np.eye(3), HALF]), shape_kind="box")
 
 
-def _slid_view(chroma: np.ndarray, px: int):
-    """The tile and its print slid `px` pixels to the right in the image, at the same depth."""
-    mask, depth = np.roll(OBJ, px, axis=1), np.roll(DEPTH, px, axis=1)
-    cloud = K.unproject_depth_image(depth)[mask]
-    shifted = np.roll(chroma, px, axis=1)
-    return make_view(cloud, shifted[mask], depth, mask, shifted, 0.004)
-
-
 def test_the_print_turns_a_half_turned_twin_back_and_is_reported_read():
     shape = _tile()
     slide = np.array([0.8 * 12 / 80.0, 0.0, 0.0])  # 12 px at 0.8 m
     wrong = Similarity(1.0, HALF, shape.centre - HALF @ shape.centre + slide)  # turned half way: the shape cannot tell
-    motion, seen, margin = read_turns(wrong, shape, _view(_printed()), _slid_view(_printed(), 12), K, 0.004)
+    motion, seen, margin = read_turns(wrong, shape, _view(_printed()), _view(_printed(), slid_px=12), K, 0.004)
     np.testing.assert_allclose(motion.R, np.eye(3), atol=1e-9)
     np.testing.assert_allclose(motion.apply(shape.centre[None])[0], shape.centre + slide, atol=1e-9)
     assert seen.kind == "none" and seen.shape_kind == "box" and margin > 0.1
