@@ -322,7 +322,8 @@ def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
     seen = 0
     for k in range(3):
         face = np.abs(local_normals[:, k]) > np.cos(np.radians(FACE_TOL_DEG))
-        if face.sum() < SPARSE_FACE_POINTS:
+        points = int(face.sum())
+        if points < SPARSE_FACE_POINTS:
             continue
         flat = np.delete(local[face], k, axis=1)
         (_, _), (w, h), _ = cv2.minAreaRect(flat.astype(np.float32))
@@ -332,7 +333,7 @@ def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
         except QhullError:
             return False
         fills = area > 0 and hull >= BOX_FACE_FILL * area
-        if not fills and face.sum() >= MIN_FACE_POINTS:
+        if not fills and points >= MIN_FACE_POINTS:
             return False
         seen += fills
     return seen > 0
