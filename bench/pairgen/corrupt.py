@@ -7,7 +7,9 @@
 - the goal depth is a monocular model's: edges bled into the background, a slow warp of a few percent, ~1 %
   noise, and an unknown affine map in depth or in disparity;
 - masks are an open-vocabulary segmenter's: a few pixels dilated or eroded, ragged edges, holes.
-Each function draws its own parameters from `rng` and returns what it did, so a pair records its corruptions.
+Each function draws its own parameters from `rng` and returns what it did, so a pair records its corruptions. Any of
+them can be left out (`without`, CORRUPTIONS) with every parameter still drawn: the same scenes, poses and other
+corruptions, so what one of them costs is measured on the very same pairs.
 """
 
 from __future__ import annotations
@@ -16,6 +18,10 @@ import math
 
 import cv2
 import numpy as np
+
+# what a goal can be spared: the depth model's bled edges, slow warp and noise, the segmenter's mask errors, the
+# editor's colour drift (blur, JPEG) and its partial re-texturing of the object
+CORRUPTIONS = ("bleed", "warp", "noise", "masks", "editor", "retexture")
 
 
 def sensor_image(rgb: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -39,9 +45,12 @@ def sensor_depth(depth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return out.astype(np.float32)
 
 
-def editor_drift(rgb: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, dict]:
+def editor_drift(rgb: np.ndarray, rng: np.random.Generator, spared: bool = False) -> tuple[np.ndarray, dict]:
     """uint8 image -> the same picture as an image editor hands it back: colour gain/offset per channel and a gamma
-    (always, mild to strong), blur and JPEG (each on about half of the images)."""
+    (always, mild to strong), blur and JPEG (each on about half of the images); `spared`: drawn, not done."""
+    if spared:
+        editor_drift(rgb, rng)
+        return rgb.copy(), {}
     gain = rng.uniform(0.85, 1.15, 3)
     offset = rng.uniform(-15.0, 15.0, 3)
     gamma = rng.uniform(0.85, 1.15)
@@ -72,29 +81,39 @@ def smooth_field(shape: tuple[int, int], rng: np.random.Generator, waves: int = 
     return f / max(np.abs(f).max(), 1e-9)
 
 
-def monocular_depth(depth: np.ndarray, kind: str, rng: np.random.Generator) -> tuple[np.ndarray, dict]:
+def monocular_depth(
+    depth: np.ndarray, kind: str, rng: np.random.Generator, without: frozenset[str] = frozenset()
+) -> tuple[np.ndarray, dict]:
     """True goal depth [m] -> a relative prediction: edges bled over 1-3 px, a 1-4 % low-frequency warp, ~1 %
-    noise (correlated over a pixel), then an unknown affine map of depth or of disparity."""
+    noise (correlated over a pixel), then an unknown affine map of depth or of disparity; those `without` names
+    ("bleed", "warp", "noise") are drawn, not done."""
     d = np.where(np.isfinite(depth), depth, np.nanmax(np.where(np.isfinite(depth), depth, np.nan)))
     x = 1.0 / d if kind == "disparity" else d.copy()
+    done: dict = {}
     bleed = rng.uniform(1.0, 3.0)
-    x = cv2.GaussianBlur(x, (0, 0), bleed)
+    if "bleed" not in without:
+        x, done["bleed_px"] = cv2.GaussianBlur(x, (0, 0), bleed), round(bleed, 2)
     warp = rng.uniform(0.01, 0.04)
-    x = x * (1.0 + warp * smooth_field(x.shape, rng))
+    field = smooth_field(x.shape, rng)
+    if "warp" not in without:
+        x, done["warp"] = x * (1.0 + warp * field), round(warp, 3)
     noise_rel = rng.uniform(0.007, 0.013)
     n = cv2.GaussianBlur(rng.normal(0.0, 1.0, x.shape), (0, 0), 1.0)
-    x = x * (1.0 + noise_rel * n / n.std())
+    if "noise" not in without:
+        x, done["noise"] = x * (1.0 + noise_rel * n / n.std()), round(noise_rel, 4)
     if kind == "disparity":
         s, b = rng.uniform(0.3, 3.0), rng.uniform(-0.2, 0.2)
     else:
         s, b = rng.uniform(0.3, 3.0), rng.uniform(-0.5, 0.5)
-    done = {"bleed_px": round(bleed, 2), "warp": round(warp, 3), "noise": round(noise_rel, 4), "s": s, "b": b}
-    return (s * x + b).astype(np.float32), done
+    return (s * x + b).astype(np.float32), {**done, "s": s, "b": b}
 
 
-def segmenter_mask(mask: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, dict]:
+def segmenter_mask(mask: np.ndarray, rng: np.random.Generator, spared: bool = False) -> tuple[np.ndarray, dict]:
     """True visible mask -> a segmenter's: dilated or eroded by up to 2-3 px, ragged edge, sometimes holes. Never
-    empty (an erosion that would empty it is skipped)."""
+    empty (an erosion that would empty it is skipped). `spared`: drawn, not done."""
+    if spared:
+        segmenter_mask(mask, rng)
+        return mask.copy(), {}
     out = mask.copy()
     done: dict = {}
     k = int(rng.integers(-2, 4))

@@ -15,7 +15,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bench.pairgen.corrupt import editor_drift, monocular_depth, segmenter_mask, sensor_depth, sensor_image
+from bench.pairgen.corrupt import (
+    CORRUPTIONS,
+    editor_drift,
+    monocular_depth,
+    segmenter_mask,
+    sensor_depth,
+    sensor_image,
+)
 from bench.pairgen.materials import Material, partially_retextured, random_material, table_material
 from bench.pairgen.render import Light, Placed, render, silhouette, visible
 from bench.pairgen.shapes import CUBE_ROTATIONS, KINDS, Shape, make_shape
@@ -208,20 +215,25 @@ def _touches_border(mask: np.ndarray, margin: int = 3) -> bool:
     return bool(mask[:margin].any() or mask[-margin:].any() or mask[:, :margin].any() or mask[:, -margin:].any())
 
 
-def make_pair(seed: int, index: int, max_tries: int = 60) -> RaycastPair:
+def make_pair(seed: int, index: int, max_tries: int = 60, without: frozenset[str] = frozenset()) -> RaycastPair:
     """Pair `index` of set `seed`; the target kind and motion kind cycle with the index, everything else is
-    drawn. Draws again (same generator) until the target is visible enough in both views."""
+    drawn. Draws again (same generator) until the target is visible enough in both views. `without`: corruptions
+    (corrupt.CORRUPTIONS) drawn but not done, the pair otherwise the same."""
+    if unknown := set(without) - set(CORRUPTIONS):
+        raise ValueError(f"pairgen: unknown corruption(s) {sorted(unknown)}; known: {', '.join(CORRUPTIONS)}")
     rng = np.random.default_rng([seed, index])
     kind = TARGET_KINDS[index % len(TARGET_KINDS)]
     motion = "slide" if kind == "ball" else MOTION_KINDS[(index // len(TARGET_KINDS)) % len(MOTION_KINDS)]
     for _ in range(max_tries):
-        pair = _attempt(rng, seed, index, kind, motion)
+        pair = _attempt(rng, seed, index, kind, motion, frozenset(without))
         if pair is not None:
             return pair
     raise RuntimeError(f"pairgen: no usable pair {index} of seed {seed} ({kind}, {motion}) in {max_tries} draws")
 
 
-def _attempt(rng: np.random.Generator, seed: int, index: int, kind: str, motion: str) -> RaycastPair | None:
+def _attempt(
+    rng: np.random.Generator, seed: int, index: int, kind: str, motion: str, without: frozenset[str]
+) -> RaycastPair | None:
     K, T_bc, look = _camera(rng)
     table, light = table_material(rng), _light(rng)
     shape = make_shape(kind, rng)
@@ -255,19 +267,20 @@ def _attempt(rng: np.random.Generator, seed: int, index: int, kind: str, motion:
     goal_light = _perturbed(light, rng)
     goal_material = target_material
     if rng.random() < 0.35:
-        goal_material = partially_retextured(target_material, rng, shape.centre)
-        corruptions["retextured"] = True
+        retextured = partially_retextured(target_material, rng, shape.centre)
+        if "retexture" not in without:
+            goal_material, corruptions["retextured"] = retextured, True
     r1 = render(K, T_bc, [Placed(shape, goal_material, T_goal), *placed], table, goal_light)
     m1 = r1.ids == 1
     if m1.sum() < MIN_PIXELS or m1.sum() < MIN_VISIBLE * alone1.sum():
         return None
     depth0 = sensor_depth(r0.depth, rng)
     depth0[(depth0 < SENSOR_RANGE_M[0]) | (depth0 > SENSOR_RANGE_M[1])] = np.nan
-    rgb1, corruptions["editor"] = editor_drift(sensor_image(r1.rgb, rng), rng)
+    rgb1, corruptions["editor"] = editor_drift(sensor_image(r1.rgb, rng), rng, "editor" in without)
     depth_kind = "disparity" if rng.random() < 0.5 else "depth"
-    depth1, corruptions["depth_model"] = monocular_depth(r1.depth, depth_kind, rng)
-    mask0, corruptions["mask0"] = segmenter_mask(m0, rng)
-    mask1, corruptions["mask1"] = segmenter_mask(m1, rng)
+    depth1, corruptions["depth_model"] = monocular_depth(r1.depth, depth_kind, rng, without)
+    mask0, corruptions["mask0"] = segmenter_mask(m0, rng, "masks" in without)
+    mask1, corruptions["mask1"] = segmenter_mask(m1, rng, "masks" in without)
     T_cb = np.linalg.inv(T_bc)
     T_motion_world = T_goal @ np.linalg.inv(target.T_world_object)
     surface = shape.mesh.sample_surface(4000, rng)
@@ -295,11 +308,6 @@ def _attempt(rng: np.random.Generator, seed: int, index: int, kind: str, motion:
         index=index,
         corruptions=corruptions,
     )
-
-
-def make_pairs(n: int, seed: int) -> list[RaycastPair]:
-    """Pairs 0..n-1 of set `seed`."""
-    return [make_pair(seed, i) for i in range(n)]
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

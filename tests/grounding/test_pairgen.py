@@ -73,6 +73,32 @@ def test_corruptions_are_what_the_notes_describe():
     assert np.abs(out.astype(float) - rgb).mean() > 2.0
 
 
+def test_a_corruption_left_out_is_drawn_but_not_done():
+    v, u = np.mgrid[0:120, 0:200]
+    depth = 0.6 + 0.002 * v + np.where((u - 100) ** 2 + (v - 60) ** 2 < 400, -0.05, 0.0)
+    rng_all, rng_none = np.random.default_rng(4), np.random.default_rng(4)
+    _, done_all = monocular_depth(depth, "disparity", rng_all)
+    pred, done = monocular_depth(depth, "disparity", rng_none, frozenset({"bleed", "warp", "noise"}))
+    assert rng_all.random() == rng_none.random()  # the same draws: what follows in a pair stays the same
+    assert set(done_all) - set(done) == {"bleed_px", "warp", "noise"} and done["s"] == done_all["s"]
+    np.testing.assert_allclose(pred, done["s"] / depth + done["b"], rtol=1e-5)  # exactly affine in disparity
+    mask = np.zeros((120, 200), dtype=bool)
+    mask[40:80, 60:140] = True
+    rng_a, rng_b = np.random.default_rng(5), np.random.default_rng(5)
+    segmenter_mask(mask, rng_a)
+    spared, _ = segmenter_mask(mask, rng_b, spared=True)
+    assert np.array_equal(spared, mask) and rng_a.random() == rng_b.random()
+
+
+def test_a_pair_without_a_corruption_is_the_same_pair_otherwise():
+    full, clean_masks = make_pair(7, 3), make_pair(7, 3, without=frozenset({"masks"}))
+    assert np.array_equal(full.rgb1, clean_masks.rgb1) and np.array_equal(full.depth1, clean_masks.depth1)
+    np.testing.assert_array_equal(full.T_motion_camera, clean_masks.T_motion_camera)
+    assert not np.array_equal(full.mask1, clean_masks.mask1) and clean_masks.corruptions["mask1"] == {}
+    with pytest.raises(ValueError, match="unknown corruption"):
+        make_pair(7, 3, without=frozenset({"blur"}))
+
+
 def test_true_symmetry_is_what_the_goal_view_cannot_tell_apart():
     rng = np.random.default_rng(1)
     cube = make_shape("box", np.random.default_rng(0))
