@@ -14,7 +14,7 @@ from drivers.types import CameraIntrinsics
 from pipeline.grounding.refine import IcpTarget
 from pipeline.grounding.types import GroundingConfig
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import Agreement, View, view_consistency
+from pipeline.grounding.verify import Agreement, View, ranked_consistency, view_consistency
 from pipeline.grounding.workers import workers
 
 MAX_ICP_TURN_DEG = 15.0  # ICP may polish a hypothesis, not replace it
@@ -71,7 +71,8 @@ def select_motion(
     view; a bottle stood up shows a side it lay on) that a twin keeping the seen faces in view does not."""
     coarse = max(cfg.inlier_min_m, 0.1 * size)
     thin0, thin1 = view0.thinned(COARSE_POINTS), view1.thinned(COARSE_POINTS)
-    ranked = sorted(candidates, key=lambda h: -view_consistency(h, thin0, thin1, K, coarse).ranked)[: cfg.refine_top]
+    coarse_ranked = ranked_consistency(candidates, thin0, thin1, K, coarse)
+    ranked = [candidates[k] for k in np.argsort(-coarse_ranked, kind="stable")[: cfg.refine_top]]
     fine = fine_tolerance(size, cfg)
     target = IcpTarget(view1.cloud, view1.normals) if cfg.icp else None
 
