@@ -81,8 +81,7 @@ def _ground(
         )
     rng = np.random.default_rng(cfg.seed)
     threshold = max(cfg.inlier_min_m, cfg.inlier_rel * size)
-    background = ~(inp.mask0 | inp.mask1)
-    up = _up_direction(pp.points0[background & np.isfinite(pp.depth0)], T_base_camera, rng)
+    up = _up_direction(pp.points0, ~(inp.mask0 | inp.mask1) & np.isfinite(pp.depth0), T_base_camera, rng)
     with workers(1) as pool:  # the features' search alongside the geometric hypotheses
         by_features = pool.submit(_by_features, inp, pp, features, size, threshold, cfg, rng)
         sweep = sweep_hypotheses(view0, view1, K, up, cfg.sweep_hypotheses, size)
@@ -313,12 +312,16 @@ def _feature_hypotheses(
     return [f.transform for f in fits if lo <= f.transform.scale <= hi]  # refits can drift out of range
 
 
-def _up_direction(background: np.ndarray, T_base_camera: np.ndarray | None, rng: np.random.Generator) -> np.ndarray:
-    """The table normal in the camera frame: from the calibration, else the dominant background plane."""
+def _up_direction(
+    points: np.ndarray, background: np.ndarray, T_base_camera: np.ndarray | None, rng: np.random.Generator
+) -> np.ndarray:
+    """The table normal in the camera frame: from the calibration, else the dominant plane of the points (H, W, 3)
+    of the `background` pixels (picked out only then: a copy of most of the image, 3 ms a pair)."""
     if T_base_camera is not None:
         return np.asarray(T_base_camera)[:3, :3].T @ np.array([0.0, 0.0, 1.0])
     import open3d as o3d
 
+    background = points[background]
     pts = background[rng.choice(len(background), min(len(background), 5000), replace=False)]
     pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts.astype(np.float64)))
     (a, b, c, _), _ = pcd.segment_plane(0.01, 3, 200)
