@@ -29,6 +29,7 @@ from pipeline.grounding.verify import (
     pattern_correlation,
     view_consistency,
     view_evidence,
+    view_evidences,
 )
 
 TOLD_APART = 0.1  # a twin's print correlates this much better than every other's ...
@@ -73,7 +74,7 @@ def read_turns(
     twin. A body of revolution's best spin is then narrowed down to SPIN_FINE_DEG."""
     turns = shape_turns(shape)
     twins = [motion.turned_first(g, shape.centre) for g in turns]
-    evidence = [view_evidence(t, view0, view1, K, tol_m) for t in twins]
+    evidence = view_evidences(twins, view0, view1, K, tol_m)
     # a twin that puts the object elsewhere (the seen centre is off the true axis) is no twin at all
     kept = [k for k, (a, _) in enumerate(evidence) if a.geometry >= MIN_TWIN_GEOMETRY * evidence[0][0].geometry]
     twins, turns = [twins[k] for k in kept], turns[kept]

@@ -265,21 +265,38 @@ def _both_ways(
     return fwd, _landing(goal, initial, inverses, K, tol_m, chroma_tol)
 
 
+def _geometry_colour(fwd: _Landing, bwd: _Landing) -> tuple[np.ndarray, np.ndarray]:
+    """Agreement.geometry and Agreement.colour of each motion (M,): the shares of the two directions averaged."""
+    return 0.5 * (fwd.share + bwd.share), 0.5 * (fwd.colour_share + bwd.colour_share)
+
+
 def view_evidence(
     hypothesis: Similarity, initial: View, goal: View, K: CameraIntrinsics, tol_m: float, chroma_tol: float = CHROMA_TOL
 ) -> tuple[Agreement, np.ndarray]:
     """(view_consistency's agreement, the colour each point lands on: per point of the initial cloud moved by the
     hypothesis, then of the goal cloud moved back, NaN where it does not land on the object at its depth; in the
     order of brought_colours)."""
-    fwd, bwd = _both_ways([hypothesis], initial, goal, K, tol_m, chroma_tol)
-    found = np.concatenate([fwd.found[0], bwd.found[0]])
-    agreement = Agreement(
-        float(0.5 * (fwd.share + bwd.share)[0]),
-        float(0.5 * (fwd.colour_share + bwd.colour_share)[0]),
-        pattern_correlation(brought_colours(initial, goal), found),
-        float(np.minimum(fwd.whole_share, bwd.whole_share)[0]),
-    )
-    return agreement, found
+    return view_evidences([hypothesis], initial, goal, K, tol_m, chroma_tol)[0]
+
+
+def view_evidences(
+    hypotheses: Sequence[Similarity],
+    initial: View,
+    goal: View,
+    K: CameraIntrinsics,
+    tol_m: float,
+    chroma_tol: float = CHROMA_TOL,
+) -> list[tuple[Agreement, np.ndarray]]:
+    """view_evidence of each of the hypotheses, all checked at once (a shape's 4-24 twins: 0.75 ms each alone)."""
+    fwd, bwd = _both_ways(hypotheses, initial, goal, K, tol_m, chroma_tol)
+    geometry, colour = _geometry_colour(fwd, bwd)
+    whole, brought = np.minimum(fwd.whole_share, bwd.whole_share), brought_colours(initial, goal)
+    out = []
+    for k in range(len(hypotheses)):
+        found = np.concatenate([fwd.found[k], bwd.found[k]])
+        pattern = pattern_correlation(brought, found)
+        out.append((Agreement(float(geometry[k]), float(colour[k]), pattern, float(whole[k])), found))
+    return out
 
 
 def view_consistency(
@@ -296,8 +313,7 @@ def ranked_consistency(
     """view_consistency's Agreement.ranked of each of the hypotheses (M,), all checked at once."""
     if not hypotheses:
         return np.empty(0)
-    fwd, bwd = _both_ways(hypotheses, initial, goal, K, tol_m, CHROMA_TOL)
-    return _ranked(0.5 * (fwd.share + bwd.share), 0.5 * (fwd.colour_share + bwd.colour_share))
+    return _ranked(*_geometry_colour(*_both_ways(hypotheses, initial, goal, K, tol_m, CHROMA_TOL)))
 
 
 def brought_colours(initial: View, goal: View) -> np.ndarray:
