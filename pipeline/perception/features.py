@@ -7,6 +7,7 @@ so that thousands x tens of thousands of pixels fit in memory on the CPU or a GP
 
 from __future__ import annotations
 
+from itertools import pairwise
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -47,12 +48,14 @@ def features_from_config(pipeline) -> FeatureExtractor:
 
 
 def best_matches(
-    src: np.ndarray, dst: np.ndarray, *, chunk: int = 4096, device: str = "cpu"
+    src: np.ndarray, dst: np.ndarray, *, chunk: int = 128, device: str = "cpu"
 ) -> tuple[np.ndarray, np.ndarray]:
     """For each src row the index of the most cosine-similar dst row and that similarity.
 
-    Rows are assumed unit length (the extractors guarantee it). Work is split into chunks of src rows so
-    the similarity block is at most chunk x len(dst).
+    Rows are assumed unit length (the extractors guarantee it). Work is split into near-equal chunks of at most
+    `chunk` src rows, so the similarity block (chunk x len(dst)) stays in the cache for the max that reads it
+    (1500 x 2700 descriptors: 10 vs 14 ms on the CPU for the whole block at once). Equal chunks leave no last chunk of
+    a few rows: a BLAS multiplies so few by another kernel, whose sums can differ in their last bit.
     """
     import torch
 
@@ -63,10 +66,12 @@ def best_matches(
     d = torch.as_tensor(dst, dtype=torch.float32, device=device)
     idx = np.empty(len(src), dtype=np.int64)
     sim = np.empty(len(src), dtype=np.float32)
+    chunks = max(1, -(-len(src) // chunk))
+    bounds = [len(src) * k // chunks for k in range(chunks + 1)]
     with torch.no_grad():
-        for start in range(0, len(src), chunk):
-            s = torch.as_tensor(src[start : start + chunk], dtype=torch.float32, device=device)
+        for start, stop in pairwise(bounds):
+            s = torch.as_tensor(src[start:stop], dtype=torch.float32, device=device)
             best = (s @ d.T).max(dim=1)
-            idx[start : start + chunk] = best.indices.cpu().numpy()
-            sim[start : start + chunk] = best.values.cpu().numpy()
+            idx[start:stop] = best.indices.cpu().numpy()
+            sim[start:stop] = best.values.cpu().numpy()
     return idx, sim
