@@ -14,7 +14,7 @@ from drivers.types import CameraIntrinsics
 from pipeline.grounding.refine import IcpTarget
 from pipeline.grounding.types import GroundingConfig
 from pipeline.grounding.umeyama import Similarity
-from pipeline.grounding.verify import Agreement, View, ranked_consistency, view_consistency
+from pipeline.grounding.verify import Agreement, View, ranked_consistency, view_evidences
 from pipeline.grounding.workers import workers
 
 MAX_ICP_TURN_DEG = 15.0  # ICP may polish a hypothesis, not replace it
@@ -77,20 +77,20 @@ def select_motion(
     target = IcpTarget(view1.cloud, view1.normals) if cfg.icp else None
 
     def scored(hypotheses: Sequence[Similarity], keep: bool = False) -> list[Selected]:
-        """Each hypothesis the clouds meet on (every one with `keep`, unpolished where they do not), refined and
-        checked at the fine tolerance; two at a time (ICP and the tree searches leave the interpreter free)."""
+        """Each hypothesis the clouds meet on (every one with `keep`, unpolished where they do not), refined two at a
+        time (ICP and the tree searches leave the interpreter free), then checked at the fine tolerance all at once
+        (8 hypotheses: 3.5 vs 6.3 ms one by one)."""
 
-        def one(hypothesis: Similarity) -> Selected | None:
-            refined = _refine(hypothesis, view0.cloud, target, size, cfg) if target else (hypothesis, 1.0)
-            if refined is None and keep:
-                refined = (hypothesis, 0.0)
-            if refined is None:
-                return None
-            sim, fitness = refined
-            return Selected(sim, view_consistency(sim, view0, view1, K, fine), fitness)
+        def refined(hypothesis: Similarity) -> tuple[Similarity, float] | None:
+            found = _refine(hypothesis, view0.cloud, target, size, cfg) if target else (hypothesis, 1.0)
+            return (hypothesis, 0.0) if found is None and keep else found
 
         with workers() as pool:
-            return [s for s in pool.map(one, hypotheses) if s is not None]
+            motions = [m for m in pool.map(refined, hypotheses) if m is not None]
+        checked = view_evidences([sim for sim, _ in motions], view0, view1, K, fine)
+        return [
+            Selected(sim, agreement, fitness) for (sim, fitness), (agreement, _) in zip(motions, checked, strict=True)
+        ]
 
     found, hinted = scored(ranked), scored(hints, keep=True)
     best = max(found, key=lambda s: s.ranked) if found else None
