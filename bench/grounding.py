@@ -32,7 +32,7 @@ truth ranks higher), or another refusal (too few inliers, a residual, the depth 
 What each corruption costs: `--without bleed,warp,noise` (any of bench/pairgen/corrupt.CORRUPTIONS) makes the raycast
 set's very pairs with those corruptions left out, every other draw the same: the gain over a run without it is what
 that corruption costs (left out together, the depth model's bled edges, warp and noise cost 12 of 120 right answers
-at b9e8a55, none of them alone more than 1).
+at 3d2c71d, none of them alone more than 1).
 
 Timing: wall and CPU time per pair, for ours and the paper's recipe in the same run, and a fixed reference
 workload timed at the start and the end, so figures can be compared across loads (`ms / reference`).
@@ -425,7 +425,7 @@ def main() -> None:
         seed = args.seed if name == "mujoco" else args.raycast_seed
         start = time.perf_counter()
         spared = sorted(without) if name == "raycast" else []
-        entries = mujoco_pairs(n, seed) if name == "mujoco" else raycast_pairs(n, seed, frozenset(spared))
+        entries = mujoco_pairs(n, seed) if name == "mujoco" else raycast_pairs(n, seed, without)
         console.print(
             f"{name}: {len(entries)} pairs made in {time.perf_counter() - start:.0f} s (seed {seed})"
             + (f", without {', '.join(spared)}" if spared else "")
