@@ -17,6 +17,7 @@ from scipy.spatial import cKDTree
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.handle import handle_hypotheses, turn_by_handle
 from pipeline.grounding.hypotheses import (
+    axis_hypotheses,
     ball_hypotheses,
     end_for_end,
     face_hypotheses,
@@ -89,8 +90,9 @@ def _ground(
         seen0 = off_support(view0.cloud, view0.normals, pp.points0, inp.mask0, up)
         seen1 = off_support(view1.cloud, view1.normals, pp.points1, inp.mask1, up)
         on_table = footprint_hypotheses(seen0[0], seen1[0], up) + handle_hypotheses(seen0, seen1, up)  # about up
-        geometric = face_hypotheses(view0, view1) + on_table + ball_hypotheses(view0, view1) + sweep
         shape = shape_symmetry(*seen0, up)  # what the capture's shape cannot show
+        geometric = face_hypotheses(view0, view1) + on_table + ball_hypotheses(view0, view1) + sweep
+        geometric += axis_hypotheses(view0, view1, K, shape, size)
         m, fits = by_features.result()
     common["matches"] = len(m.src_px)
     candidates = fits + geometric

@@ -18,6 +18,9 @@ A sweep step is too coarse for boxes: after a tilt, a near-cubic box turned 20-3
 more like a wrong face than the right one. Box-like objects show two or three planar faces, so the frames of
 their two dominant perpendicular faces in the two views give the rotation up to how the axes map (24 cases)
 to within a degree or two, however far the object turned; a point-to-plane slide finds the shift.
+
+A body of revolution's turn is where its axis goes: its axis is tried in every direction (axis_hypotheses), not only
+at the sweep's tilts, each spun so that the side the capture saw faces the goal camera.
 """
 
 from __future__ import annotations
@@ -254,20 +257,31 @@ def ball_hypotheses(view0: View, view1: View) -> list[Similarity]:
 def sweep_hypotheses(
     view0: View, view1: View, K: CameraIntrinsics, up: np.ndarray, keep: int, size_m: float
 ) -> list[Similarity]:
-    """The `keep` best rotations of the sweep, the best mutually distinct ones first (neighbours of one peak
-    would otherwise crowd out the other candidates); tolerances scale with the object (the centroids of two
-    partial views can differ by a good part of its size), and the kept ones' shifts are slid off the centroids' onto
-    the goal's surface (slid)."""
+    """The `keep` best rotations of the sweep (_best_rotations)."""
+    return _best_rotations(rotation_sweep(up), view0, view1, K, size_m, (DISTINCT_PEAKS, SEED_SEPARATION_DEG), keep)
+
+
+def _best_rotations(
+    rotations: np.ndarray,
+    view0: View,
+    view1: View,
+    K: CameraIntrinsics,
+    size_m: float,
+    distinct: tuple[int, float],
+    keep: int,
+) -> list[Similarity]:
+    """The `keep` rotations (M, 3, 3) that score best on the coarse check, the best `distinct[0]` mutually distinct
+    ones (`distinct[1]` deg apart) first: neighbours of one peak would otherwise crowd out the other candidates. The
+    tolerances scale with the object (the centroids of two partial views can differ by a good part of its size), and
+    the kept ones' shifts are slid off the centroids' onto the goal's surface (slid)."""
     sigma_px = SILHOUETTE_SIGMA_REL * size_m * K.fx / float(np.median(view0.cloud[:, 2]))
     closeness0 = mask_closeness(view0.mask, sigma_px)
     closeness1 = mask_closeness(view1.mask, sigma_px)
-    rotations = rotation_sweep(up)
     tol = depth_tolerance(DEPTH_TOL_REL * size_m, view0, view1)
     scores, t = coarse_scores(rotations, view0, view1, closeness0, closeness1, K, tol)
     order = np.argsort(-scores)
-    distinct = order[_distinct(rotations[order], SEED_SEPARATION_DEG, DISTINCT_PEAKS)]
-    peaks = set(distinct)
-    ranked = (list(distinct) + [k for k in order[:keep] if k not in peaks])[:keep]
+    peaks = list(order[_distinct(rotations[order], distinct[1], distinct[0])])
+    ranked = (peaks + [k for k in order[:keep] if k not in set(peaks)])[:keep]
     if not ranked:
         return []
     shifts = slid(rotations[ranked], t[ranked], view0, view1)
@@ -312,3 +326,64 @@ def end_for_end(motion: Similarity, shape: SeenSymmetry, points0: np.ndarray, po
 def _mid(values: np.ndarray) -> float:
     """The middle of the values' extent, robust to a few strays."""
     return 0.5 * float(np.percentile(values, 1) + np.percentile(values, 99))
+
+
+AXIS_DIRECTIONS = 600  # a body of revolution's goal axis tried in this many directions, any axis within 7 deg of one
+AXIS_PEAKS = 4  # the best mutually distinct ones kept ...
+AXIS_SEPARATION_DEG = 15.0  # ... this far apart (the sweep's peaks: 20 deg, on a grid of 15 to 30)
+
+
+def axis_hypotheses(
+    view0: View, view1: View, K: CameraIntrinsics, shape: SeenSymmetry, size_m: float
+) -> list[Similarity]:
+    """A body of revolution's motion is where its axis goes (its spin about it shows nothing but a print, which
+    seen_turns.py reads afterwards): its axis is tried in AXIS_DIRECTIONS directions spread over the sphere, each
+    spun so that the side the capture saw faces the goal camera (a partial cloud turned away explains nothing), and
+    scored like the sweep. The sweep's tilts are 30 deg apart and stop at 90: raycast cylinders whose goal axis lay
+    20-30 deg from every rotation it tries came out 5-20 deg off; one of these put the axis within 10 deg, and ICP
+    took it the rest of the way (a cylinder turned 69 deg: 19.7 -> 0.0 deg, 12.2 -> 1.2 mm). None for any other
+    shape."""
+    if shape.axis is None:
+        return []
+    a0 = shape.axis / np.linalg.norm(shape.axis)
+    d = _sphere(AXIS_DIRECTIONS)
+    onto = _onto(a0, d)
+    seen = _across(onto @ _across(view0.cloud.mean(axis=0) - shape.centre, a0), d)  # the seen side, off the axis
+    want = _across(np.broadcast_to(-view1.cloud.mean(axis=0), d.shape), d)  # toward the goal camera
+    angle = np.arctan2(np.einsum("ij,ij->i", np.cross(seen, want), d), np.einsum("ij,ij->i", seen, want))
+    rotations = Rotation.from_rotvec(angle[:, None] * d).as_matrix() @ onto
+    return _best_rotations(rotations, view0, view1, K, size_m, (AXIS_PEAKS, AXIS_SEPARATION_DEG), AXIS_PEAKS)
+
+
+def _sphere(count: int) -> np.ndarray:
+    """(count, 3) unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
+    k = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * k / count
+    phi = np.pi * (1.0 + 5**0.5) * k
+    r = np.sqrt(1.0 - z**2)
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+
+
+def _across(v: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """The part of `v` (..., 3) square to the unit `axis` (..., 3), as unit vectors (any square to it where `v` lies
+    along it)."""
+    w = v - np.sum(v * axis, axis=-1, keepdims=True) * axis
+    n = np.linalg.norm(w, axis=-1, keepdims=True)
+    helper = np.where(np.abs(axis[..., :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    fallback = np.cross(axis, helper)
+    fallback /= np.linalg.norm(fallback, axis=-1, keepdims=True)
+    return np.where(n > 1e-9, w / np.maximum(n, 1e-12), fallback)
+
+
+def _onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(M, 3, 3) the least rotations taking unit `a` (3,) onto each unit row of `b` (M, 3) (a half turn square to `a`
+    where they are opposite)."""
+    c = b @ a
+    v = np.cross(a, b)
+    V = np.zeros((len(b), 3, 3))
+    V[:, 0, 1], V[:, 0, 2], V[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
+    V[:, 1, 0], V[:, 2, 0], V[:, 2, 1] = v[:, 2], -v[:, 1], v[:, 0]
+    R = np.eye(3) + V + V @ V / np.maximum(1.0 + c, 1e-9)[:, None, None]
+    opposite = c < -1.0 + 1e-9
+    R[opposite] = half_turn_across(a)
+    return R
