@@ -56,14 +56,17 @@ K = CameraIntrinsics(320, 240, 300.0, 300.0, 160.0, 120.0)
 BASE = np.array([0.0, 0.02, 0.6])
 
 
-def _goal_view(yaw_deg: float, bar_height: float = 0.1) -> View:
-    """The goal image of the mug standing at BASE turned by yaw_deg: its depth (z-buffered) and mask."""
+def _goal_view(yaw_deg: float, bar_height: float = 0.1, then: Similarity | None = None) -> View:
+    """The goal image of the mug standing at BASE turned by yaw_deg (and then moved by `then`): its depth
+    (z-buffered) and mask."""
     rng = np.random.default_rng(5)
     a, z = rng.uniform(0, 2 * np.pi, 60000), rng.uniform(0.0, 0.1, 60000)
     wall = np.column_stack([0.04 * np.cos(a), 0.04 * np.sin(a), z])
     bar = np.column_stack([rng.uniform(0.04, 0.08, 6000), rng.uniform(-0.006, 0.006, 6000), np.full(6000, bar_height)])
     R = ON_TABLE @ Rotation.from_euler("z", yaw_deg, degrees=True).as_matrix()
     X = np.vstack([wall, bar]) @ R.T + BASE
+    if then is not None:
+        X = then.apply(X)
     uv = np.round(K.project(X)).astype(int)
     depth = np.full((K.height, K.width), np.inf)
     np.minimum.at(depth, (uv[:, 1], uv[:, 0]), X[:, 2])
@@ -94,7 +97,7 @@ def test_the_goal_silhouette_turns_the_handle_back(off_deg):
 @pytest.mark.parametrize("lean_deg", [15.0, 25.0])
 def test_a_motion_leaning_the_body_is_spun_on_its_level_twin(lean_deg):
     """A wrong turn that ICP also leaned (a model's bled goal depth): the level twin's handle is spun to where the goal
-    shows it, the answer standing; a motion tipped over is left alone."""
+    shows it, the answer standing."""
     seen0 = _mug(np.random.default_rng(6), 20.0, BASE)
     truth = Similarity(1.0, _spin(70.0), BASE - _spin(70.0) @ BASE)
     across = np.cross(UP, [1.0, 0.0, 0.0])
@@ -105,8 +108,24 @@ def test_a_motion_leaning_the_body_is_spun_on_its_level_twin(lean_deg):
     view1 = _goal_view(20.0 + 70.0)
     found = turn_by_handle(wrong, seen0, UP, view1, K, 0.004)
     assert rotation_deg(found.R.T @ truth.R) < 10.0
-    tipped = truth.turned_first(Rotation.from_rotvec(np.radians(80.0) * across).as_matrix(), middle)
-    assert turn_by_handle(tipped, seen0, UP, view1, K, 0.004) is tipped
+
+
+@pytest.mark.parametrize("off_deg", [120.0, -90.0])
+def test_a_body_laid_on_its_side_is_spun_about_its_own_axis(off_deg):
+    """The goal shows the mug laid on its side (tipped 80 deg), the handle beside the body: a motion that lays it down
+    with the handle elsewhere round its axis is spun about that axis, as it lies, to where the goal shows the handle."""
+    seen0 = _mug(np.random.default_rng(6), 20.0, BASE)
+    across = np.cross(UP, [1.0, 0.0, 0.0])
+    across /= np.linalg.norm(across)
+    middle = BASE + 0.05 * UP
+    tip = Rotation.from_rotvec(np.radians(80.0) * across).as_matrix()
+    laid = Similarity(1.0, tip, middle - tip @ middle)
+    truth = Similarity(1.0, _spin(70.0), BASE - _spin(70.0) @ BASE)
+    truth = Similarity(1.0, laid.R @ truth.R, laid.R @ truth.t + laid.t)  # turned 70 deg, then laid down
+    view1 = _goal_view(20.0 + 70.0, then=laid)
+    found = turn_by_handle(truth.turned_first(_spin(off_deg), BASE), seen0, UP, view1, K, 0.004)
+    assert rotation_deg(found.R.T @ truth.R) < 10.0
+    assert turn_by_handle(truth, seen0, UP, view1, K, 0.004) is truth  # the right spin is kept
 
 
 def test_a_goal_that_shows_no_handle_hides_it_behind_the_body():
