@@ -62,6 +62,7 @@ def read_turns(
     view1: View,
     K: CameraIntrinsics,
     tol_m: float,
+    turns: np.ndarray | None = None,
 ) -> tuple[Similarity, SeenSymmetry, float]:
     """(the twin of a printed object's `motion` under the shape's turns whose print best follows the views, the
     symmetry to report with it, the margin by which its print beats the next twin's): the `shape` symmetry flagged
@@ -71,8 +72,9 @@ def read_turns(
     Twins are ranked by their print alone (Agreement.pattern): the shape is the same under each turn, and what
     geometry adds is which side of the object stays in view: a can truly turned half way carries its seen side out
     of view and lands fewer points on the goal than a twin that keeps it in front, so geometry prefers the wrong
-    twin. A body of revolution's best spin is then narrowed down to SPIN_FINE_DEG."""
-    turns = shape_turns(shape)
+    twin. A body of revolution's best spin is then narrowed down to SPIN_FINE_DEG. `turns` (K, 3, 3), the identity
+    first: other twins than the shape's (shape_turns), about shape.centre."""
+    turns = shape_turns(shape) if turns is None else turns
     twins = [motion.turned_first(g, shape.centre) for g in turns]
     evidence = view_evidences(twins, view0, view1, K, tol_m)
     # a twin that puts the object elsewhere (the seen centre is off the true axis) is no twin at all
