@@ -75,17 +75,13 @@ def turn_by_handle(
     handle hidden behind the body tells nothing, so where the goal shows none the turns that hide it tie, and the
     middle of them is taken."""
     up = up / np.linalg.norm(up)
-    standing = standing_axis(*seen0, up)
-    if standing is None:
+    found = _handled_body(seen0, up)
+    if found is None:
         return motion
-    centre, axis = standing
+    centre, axis, handle, body = found
     base = motion
     if float(motion.R @ up @ up) < np.cos(np.radians(STANDING_DEG)):  # leaning: its level twin is spun, if it has one
         base = level_twin(motion, up, centre) or motion
-    parts = handle_points(seen0[0], centre, axis)
-    if parts is None or parts[0].sum() < MIN_HANDLE_POINTS:
-        return motion
-    handle, body = seen0[0][parts[0]], seen0[0][parts[1]]
     body = body[:: max(1, len(body) // BODY_POINTS)]
     twins = [base.turned_first(g, centre) for g in spins_about(axis, SPIN_STEP_DEG)]
     outline = _drawn(np.vstack([t.apply(body) for t in twins]), K)  # the same whichever way the body is spun
@@ -110,22 +106,34 @@ def ends_by_print(
     half way up where it was and swaps the open end for the closed one, which a model's goal depth hardly shows: a
     raycast mug laid on its side, its handle read right (turn_by_handle), came out 180 deg off with the print
     correlating -0.57 against the twin's 0.51. Only a standing body with a handle (seen0, up: as turn_by_handle)."""
-    up = up / np.linalg.norm(up)
-    standing = standing_axis(*seen0, up)
-    if standing is None:
+    found = _handled_body(seen0, up / np.linalg.norm(up))
+    if found is None:
         return motion
-    centre, axis = standing
-    parts = handle_points(seen0[0], centre, axis)
-    if parts is None or parts[0].sum() < MIN_HANDLE_POINTS:
+    centre, axis, handle, _ = found
+    out = (handle - centre - np.outer((handle - centre) @ axis, axis)).mean(axis=0)  # from the axis to the handle
+    if np.linalg.norm(out) < 1e-6:
         return motion
-    out = seen0[0][parts[0]] - centre
-    out = (out - np.outer(out @ axis, axis)).mean(axis=0)  # from the axis to the handle
     heights = seen0[0] @ axis
     middle = centre + (0.5 * float(heights.min() + heights.max()) - float(centre @ axis)) * axis
     half = Rotation.from_rotvec(np.pi * out / np.linalg.norm(out)).as_matrix()
     twins = np.array([np.eye(3), half])
     twin, read, _ = read_turns(motion, SeenSymmetry("none", middle), view0, view1, K, tol_m, twins)
     return twin if not read.print_unread else motion
+
+
+def _handled_body(
+    seen0: tuple[np.ndarray, np.ndarray], up: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """(a point on the axis, its direction, the handle's points, the body's) of the body with a handle that stands in
+    the capture (`seen0`: its points above the support and their normals; `up`: unit), or None."""
+    standing = standing_axis(*seen0, up)
+    if standing is None:
+        return None
+    centre, axis = standing
+    parts = handle_points(seen0[0], centre, axis)
+    if parts is None or parts[0].sum() < MIN_HANDLE_POINTS:
+        return None
+    return centre, axis, seen0[0][parts[0]], seen0[0][parts[1]]
 
 
 def _handle_evidence(X: np.ndarray, outline: np.ndarray, view1: View, K: CameraIntrinsics, tol_m: float) -> float:
