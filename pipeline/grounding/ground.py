@@ -15,7 +15,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
-from pipeline.grounding.handle import ends_by_print, handle_hypotheses, turn_by_handle
+from pipeline.grounding.handle import ends_by_print, handle_hypotheses, handled_body, turn_by_handle
 from pipeline.grounding.hypotheses import (
     axis_hypotheses,
     ball_hypotheses,
@@ -104,9 +104,9 @@ def _ground(
             chosen = twin
     sim, view_score, hinted = chosen.motion, chosen.score, chosen.hinted
     fine = fine_tolerance(size, cfg)
-    if shape.kind == "none" and not hinted:  # a standing body with a handle: where its handle shows tells its turn
-        sim = turn_by_handle(sim, seen0, up, view1, K, fine)
-        sim = ends_by_print(sim, seen0, up, view0, view1, K, fine)  # and which of its ends is which
+    handled = handled_body(seen0, up) if shape.kind == "none" and not hinted else None
+    if handled is not None:  # a standing body with a handle: where its handle shows tells its turn, its print its ends
+        sim = ends_by_print(turn_by_handle(sim, handled, view1, K, fine), handled, view0, view1, K, fine)
     views = [(inp.rgb0, inp.mask0, pp.points0), (inp.rgb1, inp.mask1, pp.points1)]
     symmetry, turns_margin = as_seen(shape, views), None
     if shape.kind != "none" and symmetry.kind == "none" and not hinted:  # a print: does it tell the shape's twins?

@@ -15,6 +15,8 @@ mask wherever it shows beside the body.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -57,83 +59,75 @@ def handle_hypotheses(
     return [Similarity(1.0, R, c1 - R @ c0)]
 
 
-def turn_by_handle(
-    motion: Similarity,
-    seen0: tuple[np.ndarray, np.ndarray],
-    up: np.ndarray,
-    view1: View,
-    K: CameraIntrinsics,
-    tol_m: float,
-) -> Similarity:
-    """`motion`, spun about the axis of the body standing in the capture (`seen0`: its points above the support and
-    their normals), to where its handle best explains the goal's silhouette and depth (`view1`); the motion itself
-    unless the capture shows a standing body with a handle and a turn explains the handle BETTER_BY more
-    (_handle_evidence). A motion that leans the body by more than STANDING_DEG (ICP on a
-    model's bled goal depth leaned a mug 12-28 deg, and its handle was never read) is spun on its level twin, which
-    a turn must beat by as much; tipped further than the twin allows (laid on its side), it is spun as it lies:
-    raycast mugs and pans laid down had come out with the handle on the wrong side, 8-135 mm and 20-180 deg off. A
-    handle hidden behind the body tells nothing, so where the goal shows none the turns that hide it tie, and the
-    middle of them is taken."""
-    up = up / np.linalg.norm(up)
-    found = _handled_body(seen0, up)
-    if found is None:
-        return motion
-    centre, axis, handle, body = found
-    base = motion
-    if float(motion.R @ up @ up) < np.cos(np.radians(STANDING_DEG)):  # leaning: its level twin is spun, if it has one
-        base = level_twin(motion, up, centre) or motion
-    body = body[:: max(1, len(body) // BODY_POINTS)]
-    twins = [base.turned_first(g, centre) for g in spins_about(axis, SPIN_STEP_DEG)]
-    outline = _drawn(np.vstack([t.apply(body) for t in twins]), K)  # the same whichever way the body is spun
-    outline = grow(outline, OUTLINE_GROW_PX)
-    tol_m = depth_tolerance(tol_m, view1)
-    scores = np.array([_handle_evidence(t.apply(handle), outline, view1, K, tol_m) for t in twins])
-    best = _middle_of_best(scores)
-    return twins[best] if scores[best] >= scores[0] + BETTER_BY else motion
+@dataclass(frozen=True)
+class HandledBody:
+    """A body of revolution with a handle, standing in the capture (camera frame): a point on its axis, the axis (the
+    table's normal), the handle's seen points and the body's, and the middle of its seen height on the axis."""
+
+    centre: np.ndarray
+    axis: np.ndarray
+    handle: np.ndarray
+    body: np.ndarray
+    middle: np.ndarray
 
 
-def ends_by_print(
-    motion: Similarity,
-    seen0: tuple[np.ndarray, np.ndarray],
-    up: np.ndarray,
-    view0: View,
-    view1: View,
-    K: CameraIntrinsics,
-    tol_m: float,
-) -> Similarity:
-    """`motion`, or its twin turned end for end by a half turn about the handle's line through the middle of the
-    body's height, where the body's print tells that twin apart (seen_turns.read_turns). The half turn keeps a handle
-    half way up where it was and swaps the open end for the closed one, which a model's goal depth hardly shows: a
-    raycast mug laid on its side, its handle read right (turn_by_handle), came out 180 deg off with the print
-    correlating -0.57 against the twin's 0.51. Only a standing body with a handle (seen0, up: as turn_by_handle)."""
-    found = _handled_body(seen0, up / np.linalg.norm(up))
-    if found is None:
-        return motion
-    centre, axis, handle, _ = found
-    out = (handle - centre - np.outer((handle - centre) @ axis, axis)).mean(axis=0)  # from the axis to the handle
-    if np.linalg.norm(out) < 1e-6:
-        return motion
-    heights = seen0[0] @ axis
-    middle = centre + (0.5 * float(heights.min() + heights.max()) - float(centre @ axis)) * axis
-    half = Rotation.from_rotvec(np.pi * out / np.linalg.norm(out)).as_matrix()
-    twins = np.array([np.eye(3), half])
-    twin, read, _ = read_turns(motion, SeenSymmetry("none", middle), view0, view1, K, tol_m, twins)
-    return twin if not read.print_unread else motion
-
-
-def _handled_body(
-    seen0: tuple[np.ndarray, np.ndarray], up: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
-    """(a point on the axis, its direction, the handle's points, the body's) of the body with a handle that stands in
-    the capture (`seen0`: its points above the support and their normals; `up`: unit), or None."""
-    standing = standing_axis(*seen0, up)
+def handled_body(seen0: tuple[np.ndarray, np.ndarray], up: np.ndarray) -> HandledBody | None:
+    """The body with a handle standing in the capture (`seen0`: its points above the support and their normals;
+    `up`: the table's normal, camera frame), or None where its normals do not go round the vertical or nothing
+    reaches out of its round outline."""
+    standing = standing_axis(*seen0, up / np.linalg.norm(up))
     if standing is None:
         return None
     centre, axis = standing
     parts = handle_points(seen0[0], centre, axis)
     if parts is None or parts[0].sum() < MIN_HANDLE_POINTS:
         return None
-    return centre, axis, seen0[0][parts[0]], seen0[0][parts[1]]
+    heights = seen0[0] @ axis
+    middle = centre + (0.5 * float(heights.min() + heights.max()) - float(centre @ axis)) * axis
+    return HandledBody(centre, axis, seen0[0][parts[0]], seen0[0][parts[1]], middle)
+
+
+def turn_by_handle(
+    motion: Similarity, handled: HandledBody, view1: View, K: CameraIntrinsics, tol_m: float
+) -> Similarity:
+    """`motion`, spun about the axis of the body standing in the capture (`handled`), to where its handle best explains
+    the goal's silhouette and depth (`view1`); the motion itself unless a turn explains the handle BETTER_BY more
+    (_handle_evidence). A motion that leans the body by more than STANDING_DEG (ICP on a
+    model's bled goal depth leaned a mug 12-28 deg, and its handle was never read) is spun on its level twin, which
+    a turn must beat by as much; tipped further than the twin allows (laid on its side), it is spun as it lies:
+    raycast mugs and pans laid down had come out with the handle on the wrong side, 8-135 mm and 20-180 deg off. A
+    handle hidden behind the body tells nothing, so where the goal shows none the turns that hide it tie, and the
+    middle of them is taken."""
+    centre, up = handled.centre, handled.axis  # the axis of a body standing on the table is its normal
+    base = motion
+    if float(motion.R @ up @ up) < np.cos(np.radians(STANDING_DEG)):  # leaning: its level twin is spun, if it has one
+        base = level_twin(motion, up, centre) or motion
+    body = handled.body[:: max(1, len(handled.body) // BODY_POINTS)]
+    twins = [base.turned_first(g, centre) for g in spins_about(up, SPIN_STEP_DEG)]
+    outline = _drawn(np.vstack([t.apply(body) for t in twins]), K)  # the same whichever way the body is spun
+    outline = grow(outline, OUTLINE_GROW_PX)
+    tol_m = depth_tolerance(tol_m, view1)
+    scores = np.array([_handle_evidence(t.apply(handled.handle), outline, view1, K, tol_m) for t in twins])
+    best = _middle_of_best(scores)
+    return twins[best] if scores[best] >= scores[0] + BETTER_BY else motion
+
+
+def ends_by_print(
+    motion: Similarity, handled: HandledBody, view0: View, view1: View, K: CameraIntrinsics, tol_m: float
+) -> Similarity:
+    """`motion`, or its twin turned end for end by a half turn about the handle's line through the middle of the
+    body's height, where the body's print tells that twin apart (seen_turns.read_turns). The half turn keeps a handle
+    half way up where it was and swaps the open end for the closed one, which a model's goal depth hardly shows: a
+    raycast mug laid on its side, its handle read right (turn_by_handle), came out 180 deg off with the print
+    correlating -0.57 against the twin's 0.51."""
+    off = handled.handle - handled.centre
+    out = (off - np.outer(off @ handled.axis, handled.axis)).mean(axis=0)  # from the axis to the handle
+    if np.linalg.norm(out) < 1e-6:
+        return motion
+    half = Rotation.from_rotvec(np.pi * out / np.linalg.norm(out)).as_matrix()
+    twins = np.array([np.eye(3), half])
+    twin, read, _ = read_turns(motion, SeenSymmetry("none", handled.middle), view0, view1, K, tol_m, twins)
+    return twin if not read.print_unread else motion
 
 
 def _handle_evidence(X: np.ndarray, outline: np.ndarray, view1: View, K: CameraIntrinsics, tol_m: float) -> float:

@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.compare import rotation_deg
-from pipeline.grounding.handle import handle_hypotheses, turn_by_handle
+from pipeline.grounding.handle import handle_hypotheses, handled_body, turn_by_handle
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View
 
@@ -88,10 +88,10 @@ def test_the_goal_silhouette_turns_the_handle_back(off_deg):
     truth = Similarity(1.0, _spin(70.0), BASE - _spin(70.0) @ BASE)  # turned 70 deg where it stood
     wrong = truth.turned_first(_spin(off_deg), BASE)
     view1 = _goal_view(20.0 + 70.0)
-    found = turn_by_handle(wrong, seen0, UP, view1, K, 0.004)
+    found = turn_by_handle(wrong, handled_body(seen0, UP), view1, K, 0.004)
     assert rotation_deg(found.R.T @ truth.R) < 10.0
     np.testing.assert_allclose(found.apply(BASE[None])[0], BASE, atol=0.003)
-    assert turn_by_handle(truth, seen0, UP, view1, K, 0.004) is truth  # the right turn is kept
+    assert turn_by_handle(truth, handled_body(seen0, UP), view1, K, 0.004) is truth  # the right turn is kept
 
 
 @pytest.mark.parametrize("lean_deg", [15.0, 25.0])
@@ -106,7 +106,7 @@ def test_a_motion_leaning_the_body_is_spun_on_its_level_twin(lean_deg):
     middle = BASE + 0.05 * UP  # ICP leans it about the middle of its points
     wrong = truth.turned_first(_spin(120.0), BASE).turned_first(lean, middle)
     view1 = _goal_view(20.0 + 70.0)
-    found = turn_by_handle(wrong, seen0, UP, view1, K, 0.004)
+    found = turn_by_handle(wrong, handled_body(seen0, UP), view1, K, 0.004)
     assert rotation_deg(found.R.T @ truth.R) < 10.0
 
 
@@ -123,9 +123,9 @@ def test_a_body_laid_on_its_side_is_spun_about_its_own_axis(off_deg):
     truth = Similarity(1.0, _spin(70.0), BASE - _spin(70.0) @ BASE)
     truth = Similarity(1.0, laid.R @ truth.R, laid.R @ truth.t + laid.t)  # turned 70 deg, then laid down
     view1 = _goal_view(20.0 + 70.0, then=laid)
-    found = turn_by_handle(truth.turned_first(_spin(off_deg), BASE), seen0, UP, view1, K, 0.004)
+    found = turn_by_handle(truth.turned_first(_spin(off_deg), BASE), handled_body(seen0, UP), view1, K, 0.004)
     assert rotation_deg(found.R.T @ truth.R) < 10.0
-    assert turn_by_handle(truth, seen0, UP, view1, K, 0.004) is truth  # the right spin is kept
+    assert turn_by_handle(truth, handled_body(seen0, UP), view1, K, 0.004) is truth  # the right spin is kept
 
 
 def test_a_goal_that_shows_no_handle_hides_it_behind_the_body():
@@ -143,7 +143,7 @@ def test_a_goal_that_shows_no_handle_hides_it_behind_the_body():
     beside = Similarity(1.0, beside.R, BASE - beside.R @ BASE)
     view1 = _goal_view(hidden_yaw, bar_height=0.05)
     assert view1.mask.sum() == _goal_view(hidden_yaw, bar_height=0.0).mask.sum()  # the handle does not show
-    found = turn_by_handle(beside, seen0, UP, view1, K, 0.004)
+    found = turn_by_handle(beside, handled_body(seen0, UP), view1, K, 0.004)
     handle = found.R @ handle_direction(20.0)
     assert np.degrees(np.arccos(np.clip(handle @ away, -1, 1))) < 45.0
 
