@@ -11,6 +11,8 @@ then tell the motion from its twins is seen_turns.py's to judge.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -277,23 +279,53 @@ def _whole_revolution(points: np.ndarray, normals: np.ndarray, point: np.ndarray
     return bool(np.mean(deviation <= tol) >= REVOLUTION_SHARE)
 
 
-def box_turns(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """(centre, (K, 3, 3) camera-frame turns about it that map the box onto itself) when the points lie on a box."""
+@dataclass(frozen=True)
+class SeenBox:
+    """The box a view's points lie on (camera frame): its faces' normals (columns of `frame`) and its extent along
+    each between `lo` and `hi` (the points' 1st and 99th percentiles, in that frame)."""
+
+    frame: np.ndarray  # (3, 3)
+    lo: np.ndarray  # (3,)
+    hi: np.ndarray  # (3,)
+
+    @property
+    def centre(self) -> np.ndarray:
+        return self.frame @ ((self.lo + self.hi) / 2)
+
+    @property
+    def corners(self) -> np.ndarray:
+        """(8, 3) its corners, camera frame."""
+        ends = np.stack([self.lo, self.hi])
+        local = np.array([[ends[i, 0], ends[j, 1], ends[k, 2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+        return local @ self.frame.T
+
+
+def seen_box(points: np.ndarray, normals: np.ndarray) -> SeenBox | None:
+    """The box the points lie on, or None where they do not: BOX_FACE_SHARE of them on its faces, and the faces seen
+    filling their rectangles (_rectangular_faces)."""
     F = face_frame(normals)
     if F is None:
         return None
     local = points @ F
     lo, hi = np.percentile(local, [1, 99], axis=0)
-    sides = hi - lo
-    size = float(np.linalg.norm(sides))
+    size = float(np.linalg.norm(hi - lo))
     to_face = np.minimum(np.abs(local - lo), np.abs(local - hi)).min(axis=1)
     on_faces = np.mean(to_face <= max(BOX_FACE_TOL_REL * size, BOX_FACE_TOL_M))
     if on_faces < BOX_FACE_SHARE or not _rectangular_faces(local, normals @ F):
         return None
-    same = _same_sides(sides)
+    return SeenBox(F, lo, hi)
+
+
+def box_turns(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(centre, (K, 3, 3) camera-frame turns about it that map the box onto itself) when the points lie on a box."""
+    box = seen_box(points, normals)
+    if box is None:
+        return None
+    F = box.frame
+    same = _same_sides(box.hi - box.lo)
     keeps = [P for P in AXIS_MAPS if all(same[j, k] for j, k in enumerate(np.argmax(np.abs(P), axis=1)))]
     # P maps axis j to axis argmax|P[j]|: a turn of the box onto itself when those sides are one length
-    return F @ ((lo + hi) / 2), np.array([F @ P @ F.T for P in keeps])
+    return box.centre, np.array([F @ P @ F.T for P in keeps])
 
 
 def _same_sides(sides: np.ndarray) -> np.ndarray:

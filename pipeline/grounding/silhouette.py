@@ -39,7 +39,7 @@ MIRROR_SPREAD_REL = 0.1  # the bands' middles agree this well: their spread (std
 def silhouette_ray(mask: np.ndarray, K: CameraIntrinsics) -> np.ndarray | None:
     """(3,) unit camera-frame ray through the centre of the mask's largest outline, filled; None where that outline
     is not round or touches the image's edge."""
-    outline = _outline(mask)
+    outline = largest_outline(mask)
     if outline is None:
         return None
     _, radius = cv2.minEnclosingCircle(outline)
@@ -53,7 +53,7 @@ def mirror_plane(mask: np.ndarray, K: CameraIntrinsics, axis: np.ndarray) -> np.
     """(3,) unit normal of the plane through the camera, parallel to `axis` (a body of revolution's, camera frame),
     that the mask's largest outline is symmetric about; None where it touches the image's edge or its bands do not
     agree on one plane."""
-    outline = _outline(mask)
+    outline = largest_outline(mask)
     if outline is None:
         return None
     filled = np.zeros(mask.shape, np.uint8)
@@ -106,7 +106,7 @@ def _unit_rays(pixels: np.ndarray, K: CameraIntrinsics) -> np.ndarray:
     return rays / np.linalg.norm(rays, axis=1, keepdims=True)
 
 
-def _outline(mask: np.ndarray) -> np.ndarray | None:
+def largest_outline(mask: np.ndarray) -> np.ndarray | None:
     """The mask's largest outline (OpenCV contour), None where there is none or it touches the image's edge."""
     contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     if not contours:

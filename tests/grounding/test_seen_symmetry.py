@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.seen_symmetry import _rectangular_faces, as_seen, shape_symmetry, shows_print
+from pipeline.grounding.seen_symmetry import _rectangular_faces, as_seen, seen_box, shape_symmetry, shows_print
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # bench/ is not an installed package
 
@@ -73,6 +73,20 @@ def test_a_uniform_box_is_reported_with_the_turns_its_equal_sides_allow():
     # a 5 cm block as a sensor gives it, voxelled at 3 mm: a few dozen points on its least seen face, sensor noise
     small = shape_symmetry(*_voxelled(*_box((0.05, 0.05, 0.05), rng, per_face=4000, noise_m=0.0007), 0.003))
     assert small.kind == "box" and len(small.rotations) == 24
+
+
+def test_the_box_seen_has_the_true_boxs_corners():
+    """seen_box: the box three of whose faces are seen, its eight corners where the true box's are (within the
+    points' percentiles), and a can is no box."""
+    rng = np.random.default_rng(1)
+    sides = np.array([0.05, 0.08, 0.11])
+    box = seen_box(*_box(tuple(sides), rng))
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * sides / 2
+    true = corners @ TOWARD.T + [0.0, 0.0, 0.8]
+    nearest = np.linalg.norm(box.corners[:, None] - true[None], axis=2).min(axis=1)
+    assert nearest.max() < 0.003  # the 1st and 99th percentiles: about 1 % of each side in
+    np.testing.assert_allclose(box.centre, [0.0, 0.0, 0.8], atol=2e-3)
+    assert seen_box(*_cylinder(0.03, 0.1, rng)) is None
 
 
 def _voxelled(points: np.ndarray, normals: np.ndarray, voxel_m: float) -> tuple[np.ndarray, np.ndarray]:
