@@ -15,6 +15,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
+from pipeline.grounding.box_outline import turned_to_outline
 from pipeline.grounding.handle import ends_by_print, handle_hypotheses, handled_body, turn_by_handle
 from pipeline.grounding.hypotheses import (
     axis_hypotheses,
@@ -27,7 +28,7 @@ from pipeline.grounding.hypotheses import (
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.prepare import Prepared, prepare, refuse
 from pipeline.grounding.ray_rest import MIN_GAP_M, ball_surface, rest_along_ray
-from pipeline.grounding.seen_symmetry import as_seen, off_support, shape_symmetry
+from pipeline.grounding.seen_symmetry import as_seen, off_support, seen_box, shape_symmetry
 from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.select import fine_tolerance, select_motion
 from pipeline.grounding.silhouette import axis_into_plane, onto_ray, silhouette_ray
@@ -188,6 +189,9 @@ def _ground(
         spin = None if shape.axis is None else (shape.centre, shape.axis)  # its turns about its axis look alike
         scene = _scene_around(pp.points0, inp.mask0)
         placed, rested = rest_along_ray(placed, body0, scene, up, min_gap, through, spin)
+        box = seen_box(*seen0) if shape.kind == "box" else None
+        if box is not None:  # its outline tells its turn about the vertical better than the model's depth can
+            placed = turned_to_outline(placed, box, up, inp.mask1, pp.depth1, K)
     centre = pp.cloud0.mean(axis=0)
     t_rigid = placed.apply(centre[None])[0] - placed.R @ centre  # the centre lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))
