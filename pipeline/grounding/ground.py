@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.box_outline import turned_to_outline
-from pipeline.grounding.handle import ends_by_print, handle_hypotheses, handled_body, turn_by_handle
+from pipeline.grounding.handle import HandledBody, ends_by_print, handle_hypotheses, handled_body, turn_by_handle
 from pipeline.grounding.hypotheses import (
     axis_hypotheses,
     ball_hypotheses,
@@ -26,6 +26,8 @@ from pipeline.grounding.hypotheses import (
     sweep_hypotheses,
 )
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
+from pipeline.grounding.outline_fit import goal_outline
+from pipeline.grounding.outline_place import placed_on_outline
 from pipeline.grounding.prepare import Prepared, prepare, refuse
 from pipeline.grounding.ray_rest import MIN_GAP_M, ball_surface, rest_along_ray
 from pipeline.grounding.seen_symmetry import as_seen, off_support, seen_box, shape_symmetry
@@ -33,7 +35,7 @@ from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.select import fine_tolerance, select_motion
 from pipeline.grounding.silhouette import axis_into_plane, onto_ray, silhouette_ray
 from pipeline.grounding.tilt import kept_level
-from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion
+from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion, SeenSymmetry
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
 from pipeline.grounding.verify import view_consistency
 from pipeline.grounding.workers import one_thread_each, workers
@@ -189,9 +191,7 @@ def _ground(
         spin = None if shape.axis is None else (shape.centre, shape.axis)  # its turns about its axis look alike
         scene = _scene_around(pp.points0, inp.mask0)
         placed, rested = rest_along_ray(placed, body0, scene, up, min_gap, through, spin)
-        box = seen_box(*seen0) if shape.kind == "box" else None
-        if box is not None:  # its outline tells its turn about the vertical better than the model's depth can
-            placed = turned_to_outline(placed, box, up, inp.mask1, pp.depth1, K)
+        placed = _on_goal_outline(placed, shape, seen0, handled, up, inp, pp, size)
     centre = pp.cloud0.mean(axis=0)
     t_rigid = placed.apply(centre[None])[0] - placed.R @ centre  # the centre lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))
@@ -317,6 +317,32 @@ def _feature_hypotheses(
     )
     lo, hi = cfg.scale_range
     return [f.transform for f in fits if lo <= f.transform.scale <= hi]  # refits can drift out of range
+
+
+def _on_goal_outline(
+    motion: Similarity,
+    shape: SeenSymmetry,
+    seen0: tuple[np.ndarray, np.ndarray],
+    handled: HandledBody | None,
+    up: np.ndarray,
+    inp: GroundingInput,
+    pp: Prepared,
+    size: float,
+) -> Similarity:
+    """A model's goal turned and moved along the table to where the goal mask's outline shows it, for bodies whose
+    whole shape the capture gives: a box turned about the vertical (box_outline.py) and moved, a handled body moved
+    (outline_place.py). The outline does not depend on the model's depth, which tilts a small box's faces and puts a
+    large pan centimetres off."""
+    box = seen_box(*seen0) if shape.kind == "box" else None
+    if box is None and handled is None:
+        return motion
+    outline = goal_outline(inp.mask1, pp.depth1, inp.intrinsics)
+    if outline is None:
+        return motion
+    if box is not None:
+        turned = turned_to_outline(motion, box, up, outline)
+        return placed_on_outline(turned, box.corners, box.centre, up, outline, size)
+    return placed_on_outline(motion, handled.whole(), handled.centre, up, outline, size)
 
 
 def _up_direction(

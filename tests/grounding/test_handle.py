@@ -80,6 +80,22 @@ def _spin(deg: float) -> np.ndarray:
     return Rotation.from_rotvec(np.radians(deg) * UP).as_matrix()
 
 
+def test_the_whole_handled_body_goes_round_its_axis_at_its_radius():
+    """HandledBody.whole: the seen half of the wall spun all the way round its axis at its radius (within 1 mm, the
+    hidden side too), with the handle's points."""
+    handled = handled_body(_mug(np.random.default_rng(2), 30.0, BASE), UP)
+    whole = handled.whole()
+    off = whole - handled.centre
+    across = off - np.outer(off @ handled.axis, handled.axis)
+    radius = np.linalg.norm(across, axis=1)
+    wall = radius < 0.045
+    assert np.all(np.abs(radius[wall] - 0.04) < 0.001)
+    e1 = np.cross(handled.axis, [1.0, 0.0, 0.0])
+    azimuth = np.degrees(np.arctan2(across[wall] @ np.cross(handled.axis, e1), across[wall] @ e1))
+    assert np.histogram(azimuth, bins=12, range=(-180, 180))[0].min() > 0  # all the way round
+    assert len(whole) - wall.sum() == len(handled.handle)
+
+
 @pytest.mark.parametrize("off_deg", [120.0, -90.0, 60.0])
 def test_the_goal_silhouette_turns_the_handle_back(off_deg):
     """A motion that leaves the handle where the goal shows none, while the goal shows it beside the body, is spun
