@@ -148,17 +148,20 @@ def _refined(points: np.ndarray, axis: RevolutionAxis) -> RevolutionAxis:
     return replace(axis, point=point, direction=direction, radius_m=radius)
 
 
-def slice_radii(points: np.ndarray, axis: RevolutionAxis) -> tuple[np.ndarray, np.ndarray]:
-    """(position along the axis, median radius) of each SLICE_M slice across it over the whole seen length, each
-    of at least MIN_SLICE_POINTS points."""
-    off = points - axis.point
-    along = off @ axis.direction
-    radius = np.linalg.norm(off - np.outer(along, axis.direction), axis=1)
+def slice_radii(
+    points: np.ndarray, point: np.ndarray, direction: np.ndarray, percentile: float = 50.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """(position along the axis through `point` along unit `direction`, radius: the `percentile` of the points'
+    distances from the axis, their median by default) of each SLICE_M slice across it over the whole seen length,
+    each of at least MIN_SLICE_POINTS points."""
+    off = points - point
+    along = off @ direction
+    radius = np.linalg.norm(off - np.outer(along, direction), axis=1)
     index = np.floor((along - along.min()) / SLICE_M).astype(int)
     kept = [k for k in np.unique(index) if (index == k).sum() >= MIN_SLICE_POINTS]
     return (
         np.array([float(np.mean(along[index == k])) for k in kept]),
-        np.array([float(np.median(radius[index == k])) for k in kept]),
+        np.array([float(np.percentile(radius[index == k], percentile)) for k in kept]),
     )
 
 

@@ -148,6 +148,15 @@ def spins_about(axis: np.ndarray, step_deg: float) -> np.ndarray:
     return Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, step_deg))[:, None] * axis).as_matrix()
 
 
+def sphere_directions(count: int) -> np.ndarray:
+    """(count, 3) unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
+    k = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * k / count
+    azimuth = np.pi * (1.0 + 5**0.5) * k
+    ring = np.sqrt(1.0 - z**2)
+    return np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), z], axis=1)
+
+
 def object_centre(points_camera: np.ndarray) -> np.ndarray:
     """Centre of the visible object points (N, 3) in the camera frame, robust to stray edge pixels."""
     return np.median(points_camera, axis=0)

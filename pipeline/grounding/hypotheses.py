@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import ball_centre, basis_across
-from pipeline.grounding.compare import half_turn_across, spins_about
+from pipeline.grounding.compare import half_turn_across, sphere_directions, spins_about
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import COLOUR_WEIGHT, View, depth_tolerance
@@ -346,22 +346,13 @@ def axis_hypotheses(
     if shape.axis is None:
         return []
     a0 = shape.axis / np.linalg.norm(shape.axis)
-    d = _sphere(AXIS_DIRECTIONS)
+    d = sphere_directions(AXIS_DIRECTIONS)
     onto = _onto(a0, d)
     seen = _across(onto @ _across(view0.cloud.mean(axis=0) - shape.centre, a0), d)  # the seen side, off the axis
     want = _across(np.broadcast_to(-view1.cloud.mean(axis=0), d.shape), d)  # toward the goal camera
     angle = np.arctan2(np.einsum("ij,ij->i", np.cross(seen, want), d), np.einsum("ij,ij->i", seen, want))
     rotations = Rotation.from_rotvec(angle[:, None] * d).as_matrix() @ onto
     return _best_rotations(rotations, view0, view1, K, size_m, (AXIS_PEAKS, AXIS_SEPARATION_DEG), AXIS_PEAKS)
-
-
-def _sphere(count: int) -> np.ndarray:
-    """(count, 3) unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
-    k = np.arange(count) + 0.5
-    z = 1.0 - 2.0 * k / count
-    phi = np.pi * (1.0 + 5**0.5) * k
-    r = np.sqrt(1.0 - z**2)
-    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
 
 
 def _across(v: np.ndarray, axis: np.ndarray) -> np.ndarray:

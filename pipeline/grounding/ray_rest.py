@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from pipeline.grounding.compare import sphere_directions
 from pipeline.grounding.settle import beneath
 from pipeline.grounding.tilt import tilt_deg
 from pipeline.grounding.umeyama import Similarity
@@ -90,11 +91,7 @@ def least_tilting_spin(motion: Similarity, axis: np.ndarray, point: np.ndarray, 
 def ball_surface(centre: np.ndarray, radius: float, count: int = 256) -> np.ndarray:
     """(count, 3) points spread evenly over a ball's whole surface (a Fibonacci lattice): the body rest_along_ray
     sets on its support where the seen points stop near the ball's equator."""
-    k = np.arange(count) + 0.5
-    z = 1.0 - 2.0 * k / count
-    azimuth = np.pi * (1.0 + 5**0.5) * k
-    ring = np.sqrt(1.0 - z**2)
-    return centre + radius * np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), z], axis=1)
+    return centre + radius * sphere_directions(count)
 
 
 def _height_above_support(points: np.ndarray, scene: np.ndarray, up: np.ndarray, reach: float) -> float | None:

@@ -29,7 +29,7 @@ MIN_LEAN_DEG = 2.0  # a goal axis leaning less than this off vertical is left (t
 def wide_end(points: np.ndarray, axis: RevolutionAxis) -> np.ndarray | None:
     """The unit direction along the axis toward the wider end of the seen body (its base), or None when the ends'
     radii (the median radius of the slices in each third of the seen length) are within WIDE_REL of each other."""
-    s, radii = slice_radii(points, axis)
+    s, radii = slice_radii(points, axis.point, axis.direction)
     if len(radii) < 3:
         return None
     third = (s.max() - s.min()) / 3

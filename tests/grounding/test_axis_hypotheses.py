@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.grounding.hypotheses import AXIS_DIRECTIONS, _onto, _sphere, axis_hypotheses
+from pipeline.grounding.compare import sphere_directions
+from pipeline.grounding.hypotheses import AXIS_DIRECTIONS, _onto, axis_hypotheses
 from pipeline.grounding.prepare import prepare
 from pipeline.grounding.seen_symmetry import off_support, shape_symmetry
 from pipeline.grounding.types import GroundingConfig, GroundingInput, SeenSymmetry
@@ -21,7 +22,7 @@ from bench.pairgen.generate import make_pair
 def test_the_directions_cover_the_sphere_and_each_is_reached_by_a_least_rotation():
     """Every axis direction lies within 7 deg of one tried (ICP turns up to 15), and the rotation tried takes the
     capture's axis there."""
-    directions = _sphere(AXIS_DIRECTIONS)
+    directions = sphere_directions(AXIS_DIRECTIONS)
     anywhere = np.random.default_rng(0).normal(size=(5000, 3))
     anywhere /= np.linalg.norm(anywhere, axis=1, keepdims=True)
     assert np.degrees(np.arccos(np.clip((anywhere @ directions.T).max(axis=1), -1, 1))).max() < 7.0
