@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.outline_fit import GoalOutline
+from pipeline.grounding.outline_fit import GoalOutline, parabola_vertex
 from pipeline.grounding.seen_symmetry import SeenBox
 from pipeline.grounding.umeyama import Similarity
 
@@ -36,17 +36,9 @@ def turned_to_outline(motion: Similarity, box: SeenBox, up: np.ndarray, outline:
     best = int(np.argmin(fits.cost))
     if fits.along[best] < MIN_ALONG:
         return motion
-    angle = angles[best] + np.radians(STEP_DEG) * _vertex(fits.cost, best)
+    vertex = parabola_vertex(*fits.cost[best - 1 : best + 2]) if 0 < best < len(angles) - 1 else 0.0
+    angle = angles[best] + np.radians(STEP_DEG) * vertex
     if abs(angle) < np.radians(MIN_TURN_DEG):
         return motion
     Y = Rotation.from_rotvec(angle * up).as_matrix()
     return Similarity(motion.scale, Y @ motion.R, Y @ (motion.t - centre) + centre)
-
-
-def _vertex(costs: np.ndarray, k: int) -> float:
-    """Where, in steps from k, the parabola through costs k-1, k, k+1 is lowest (0 at either end or where flat)."""
-    if not 0 < k < len(costs) - 1:
-        return 0.0
-    a, b, c = costs[k - 1 : k + 2]
-    curve = a - 2 * b + c
-    return float(np.clip(0.5 * (a - c) / curve, -0.5, 0.5)) if curve > 0 else 0.0

@@ -17,6 +17,7 @@ from scipy.spatial import cKDTree
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.box_outline import turned_to_outline
 from pipeline.grounding.handle import HandledBody, ends_by_print, handle_hypotheses, handled_body, turn_by_handle
+from pipeline.grounding.handle_outline import spun_to_outline
 from pipeline.grounding.hypotheses import (
     axis_hypotheses,
     ball_hypotheses,
@@ -330,9 +331,10 @@ def _on_goal_outline(
     size: float,
 ) -> Similarity:
     """A model's goal turned and moved along the table to where the goal mask's outline shows it, for bodies whose
-    whole shape the capture gives: a box turned about the vertical (box_outline.py) and moved, a handled body moved
-    (outline_place.py). The outline does not depend on the model's depth, which tilts a small box's faces and puts a
-    large pan centimetres off."""
+    whole shape the capture gives: a box turned about the vertical (box_outline.py) and moved, a handled body spun
+    about its axis (handle_outline.py) and moved (outline_place.py). The outline does not depend on the model's
+    depth, which tilts a small box's faces, lays a mug's handle along a grown mask and puts a large pan centimetres
+    off."""
     box = seen_box(*seen0) if shape.kind == "box" else None
     if box is None and handled is None:
         return motion
@@ -342,7 +344,8 @@ def _on_goal_outline(
     if box is not None:
         turned = turned_to_outline(motion, box, up, outline)
         return placed_on_outline(turned, box.corners, box.centre, up, outline, size)
-    return placed_on_outline(motion, handled.whole(), handled.centre, up, outline, size)
+    whole = handled.whole()
+    return placed_on_outline(spun_to_outline(motion, handled, whole, outline), whole, handled.centre, up, outline, size)
 
 
 def _up_direction(

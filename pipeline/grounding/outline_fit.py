@@ -88,6 +88,12 @@ def goal_outline(mask1: np.ndarray, depth1: np.ndarray, K: CameraIntrinsics) -> 
     return GoalOutline(distance, np.array([x0, y0], dtype=np.float64), depth1, K)
 
 
+def parabola_vertex(a: float, b: float, c: float) -> float:
+    """Where, in steps from the middle one, the parabola through three costs a step apart is lowest (0 where flat)."""
+    curve = a - 2 * b + c
+    return float(np.clip(0.5 * (a - c) / curve, -0.5, 0.5)) if curve > 0 else 0.0
+
+
 def _hull_edges(point_sets: np.ndarray, K: CameraIntrinsics) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(points (P, 2), outward unit normals (P, 2), their depth [m] (P,), which set each is from (P,)): the outline
     of each set of points' images (A, N, 3), their convex hull, sampled about every pixel."""

@@ -1,11 +1,15 @@
-"""Helpers for the grounding tests: goal poses and error measures on simulated pairs."""
+"""Helpers for the grounding tests: goal poses and error measures on simulated pairs, and raycast pairs grounded."""
 
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # bench/ is not an installed package
 
 
 def goal_pose(renderer, name: str, shift_xy, yaw_deg: float, tilt_deg: float = 0.0) -> np.ndarray:
@@ -27,3 +31,17 @@ def errors(pair, motion) -> tuple[float, float, float]:
     axis = pair.T_camera_object0[:3, 2]
     a_err = math.degrees(math.acos(np.clip(np.dot(motion.R @ axis, M[:3, :3] @ axis), -1, 1)))
     return t_err, r_err, a_err
+
+
+def grounded_raycast(seed: int, index: int):
+    """(the pair, ground()'s accepted motion) of raycast pair `index` of set `seed` (bench.pairgen)."""
+    from bench.pairgen.generate import make_pair
+    from pipeline.grounding.ground import ground
+    from pipeline.grounding.types import GroundingConfig, GroundingInput
+    from pipeline.perception.offline_features import OfflineFeatures
+
+    p = make_pair(seed, index)
+    inp = GroundingInput(p.rgb0, p.depth0, p.mask0, p.rgb1, p.depth1, p.depth1_kind, p.mask1, p.intrinsics)
+    motion = ground(inp, OfflineFeatures(), GroundingConfig(), T_base_camera=p.T_base_camera)
+    assert motion.ok, motion.reason
+    return p, motion

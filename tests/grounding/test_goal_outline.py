@@ -8,6 +8,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from grounding_helpers import grounded_raycast
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
@@ -158,30 +159,12 @@ def test_a_hull_that_does_not_lie_along_the_outline_or_would_move_too_far_is_not
     assert placed_on_outline(TRUTH, box.corners, box.centre, UP, outline, size) is TRUTH
 
 
-def _raycast(seed: int, index: int):
-    """A raycast pair (bench.pairgen) and ground()'s motion on it."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # bench/ is not an installed package
-    from bench.pairgen.generate import make_pair
-    from pipeline.grounding.ground import ground
-    from pipeline.grounding.types import GroundingConfig, GroundingInput
-    from pipeline.perception.offline_features import OfflineFeatures
-
-    p = make_pair(seed, index)
-    inp = GroundingInput(p.rgb0, p.depth0, p.mask0, p.rgb1, p.depth1, p.depth1_kind, p.mask1, p.intrinsics)
-    motion = ground(inp, OfflineFeatures(), GroundingConfig(), T_base_camera=p.T_base_camera)
-    assert motion.ok, motion.reason
-    return p, motion
-
-
 def test_a_raycast_box_turned_off_by_its_goal_depth_comes_back():
     """Raycast 2000:80: a box turned on the table came out 14 deg off about the vertical, the model's goal depth
     tilting its faces; its outline puts it within 5 deg."""
     from bench.pairgen.scoring import rotation_error_deg
 
-    p, motion = _raycast(2000, 80)
+    p, motion = grounded_raycast(2000, 80)
     assert (p.object_kind, p.motion_kind) == ("box", "turn")
     R0 = p.T_camera_object0[:3, :3]
     assert rotation_error_deg(motion.R, p.T_motion_camera[:3, :3], R0, p.shape_symmetry) < 5.0
@@ -192,6 +175,6 @@ def test_a_raycast_pan_put_off_along_the_table_by_its_goal_depth_comes_back():
     showing it 5 pixels from there; its outline puts it within 5 mm."""
     from bench.pairgen.scoring import translation_error_mm
 
-    p, motion = _raycast(2000, 13)
+    p, motion = grounded_raycast(2000, 13)
     assert (p.object_kind, p.motion_kind) == ("pan", "turn")
     assert translation_error_mm(motion.R, motion.t, p.T_motion_camera, p.centre_camera) < 5.0

@@ -3,19 +3,15 @@ centre, a body of revolution's axis in the plane the outline is symmetric about;
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
+from grounding_helpers import grounded_raycast
 
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.ray_rest import ball_surface
 from pipeline.grounding.silhouette import axis_into_plane, mirror_plane, onto_ray, silhouette_ray
 from pipeline.grounding.umeyama import Similarity
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # bench/ is not an installed package
 
 K = CameraIntrinsics(width=640, height=480, fx=600.0, fy=600.0, cx=319.5, cy=239.5)
 CENTRE = np.array([0.15, 0.08, 0.9])  # off the optical axis: its silhouette is an ellipse, not a circle
@@ -138,17 +134,10 @@ def test_a_round_body_slid_across_the_table_lands_where_its_outline_and_its_supp
 ):
     """Raycast pairs (a model's goal depth, flattened and warped under the object) whose answers were 35, 9 and
     4.8 mm off, most of it across the ray: ICP and the sphere fit followed the goal depth, not the image."""
-    from bench.pairgen.generate import make_pair
     from bench.pairgen.scoring import translation_error_mm
-    from pipeline.grounding.ground import ground
-    from pipeline.grounding.types import GroundingConfig, GroundingInput
-    from pipeline.perception.offline_features import OfflineFeatures
 
-    p = make_pair(seed, index)
+    p, motion = grounded_raycast(seed, index)
     assert p.object_kind == kind
-    inp = GroundingInput(p.rgb0, p.depth0, p.mask0, p.rgb1, p.depth1, p.depth1_kind, p.mask1, p.intrinsics)
-    motion = ground(inp, OfflineFeatures(), GroundingConfig(), T_base_camera=p.T_base_camera)
-    assert motion.ok, motion.reason
     assert translation_error_mm(motion.R, motion.t, p.T_motion_camera, p.centre_camera) < within_mm
 
 
