@@ -49,6 +49,7 @@ MIN_FACE_POINTS = 100
 # does not rules nothing out: a sparse face's hull falls short of its rectangle by its ragged edges (small raycast
 # cubes read as none, their faces of 80-96 points filling 0.87-0.89)
 SPARSE_FACE_POINTS = 30
+EDGE_NORMAL_DEG = 60.0  # a face's points along its edges, their normals bent by the smoothing, lean up to this
 SUPPORT_RING_PX = (4, 12)  # the ring around the mask that shows what the object stands on (inner, outer)
 SUPPORT_CLEARANCE_M = 0.005
 # a part this far from the rest of the seen points (through any chain of them) is not on the object: what the mask
@@ -310,8 +311,9 @@ def seen_box(points: np.ndarray, normals: np.ndarray) -> SeenBox | None:
     lo, hi = np.percentile(local, [1, 99], axis=0)
     size = float(np.linalg.norm(hi - lo))
     to_face = np.minimum(np.abs(local - lo), np.abs(local - hi)).min(axis=1)
-    on_faces = np.mean(to_face <= max(BOX_FACE_TOL_REL * size, BOX_FACE_TOL_M))
-    if on_faces < BOX_FACE_SHARE or not _rectangular_faces(local, normals @ F):
+    tol = max(BOX_FACE_TOL_REL * size, BOX_FACE_TOL_M)
+    on_faces = np.mean(to_face <= tol)
+    if on_faces < BOX_FACE_SHARE or not _rectangular_faces(local, normals @ F, tol):
         return None
     return SeenBox(F, lo, hi)
 
@@ -343,31 +345,37 @@ def _same_sides(sides: np.ndarray) -> np.ndarray:
     return same
 
 
-def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray) -> bool:
-    """Whether the faces seen (points whose normal is along a frame axis) fill the smallest rectangle round each in the
-    face's plane (BOX_FACE_FILL): every face of MIN_FACE_POINTS, and one at least, a sparse one too
-    (SPARSE_FACE_POINTS); a disc, a pan's bottom, a can's cap do not. The smallest, not the one along the
-    frame's other axes: the frame, read from noisy normals, can sit a few degrees off a face's edges, and a face
-    twice as long as it is wide then fills under 0.85 of the frame's rectangle (raycast boxes read as none)."""
+def _rectangular_faces(local: np.ndarray, local_normals: np.ndarray, tol_m: float) -> bool:
+    """Whether the faces seen fill the smallest rectangle round each in the face's plane (BOX_FACE_FILL): every face
+    of MIN_FACE_POINTS, and one at least, a sparse one too (SPARSE_FACE_POINTS); a disc, a pan's bottom, a can's cap
+    do not. The smallest, not the one along the frame's other axes: the frame, read from noisy normals, can sit a few
+    degrees off a face's edges, and a face twice as long as it is wide then fills under 0.85 of the frame's rectangle
+    (raycast boxes read as none). A face is found by its normals (along a frame axis, FACE_TOL_DEG) and then taken
+    whole: its points within `tol_m` of its plane whose normals lean less than EDGE_NORMAL_DEG off it. Its normals
+    alone leave out its edges, where the smoothing bends them: a face 2-4 cm across came out with its corners round,
+    filling 0.75-0.88 of its rectangle, and raycast boxes were read as none (then turned 12-178 deg off)."""
     from scipy.spatial import ConvexHull, QhullError
 
     seen = 0
     for k in range(3):
-        face = np.abs(local_normals[:, k]) > np.cos(np.radians(FACE_TOL_DEG))
-        points = int(face.sum())
-        if points < SPARSE_FACE_POINTS:
-            continue
-        flat = np.delete(local[face], k, axis=1)
-        (_, _), (w, h), _ = cv2.minAreaRect(flat.astype(np.float32))
-        area = float(w * h)
-        try:
-            hull = float(ConvexHull(flat).volume)
-        except QhullError:
-            return False
-        fills = area > 0 and hull >= BOX_FACE_FILL * area
-        if not fills and points >= MIN_FACE_POINTS:
-            return False
-        seen += fills
+        for side in (1.0, -1.0):  # the face the axis points out of, and the one it points into
+            along = side * local_normals[:, k]
+            core = along > np.cos(np.radians(FACE_TOL_DEG))
+            if core.sum() < SPARSE_FACE_POINTS:
+                continue
+            plane = float(np.median(local[core, k]))
+            face = (along > np.cos(np.radians(EDGE_NORMAL_DEG))) & (np.abs(local[:, k] - plane) <= tol_m)
+            flat = np.delete(local[face], k, axis=1)
+            (_, _), (w, h), _ = cv2.minAreaRect(flat.astype(np.float32))
+            area = float(w * h)
+            try:
+                hull = float(ConvexHull(flat).volume)
+            except QhullError:
+                return False
+            fills = area > 0 and hull >= BOX_FACE_FILL * area
+            if not fills and face.sum() >= MIN_FACE_POINTS:
+                return False
+            seen += fills
     return seen > 0
 
 
