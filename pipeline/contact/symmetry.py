@@ -22,6 +22,7 @@ MIN_POINTS = 50
 ENDS_ALIKE_REL = 0.1  # slices' radii within this share of their median all along: the ends look alike (a can) ...
 END_MARGIN_REL = 0.1  # ... over the middle of the seen length (an end's cap, a disc of smaller radii, left out) ...
 MIN_SLICE_POINTS = 5  # ... in slices of at least this many points
+RIM_PERCENTILE = 95  # of a slice's distances from the axis: its rim, not a stray
 BALL_SPAN = 0.4  # a ball's radius is at most this share of what its seen points span (their extents' norm)
 
 
@@ -163,6 +164,17 @@ def slice_radii(
         np.array([float(np.mean(along[index == k])) for k in kept]),
         np.array([float(np.percentile(radius[index == k], percentile)) for k in kept]),
     )
+
+
+def revolved(points: np.ndarray, point: np.ndarray, direction: np.ndarray, azimuths: int = 24) -> np.ndarray:
+    """(N, 3) points on the whole of a body of revolution seen from one side: each slice of its seen `points` along
+    the axis through `point` along unit `direction` (slice_radii) spun all the way round at the slice's radius, its
+    RIM_PERCENTILE (a rim, not a stray)."""
+    heights, radii = slice_radii(points, point, direction, RIM_PERCENTILE)
+    e1, e2 = basis_across(direction)
+    azimuth = np.linspace(0.0, 2.0 * np.pi, azimuths, endpoint=False)
+    ring = np.outer(np.cos(azimuth), e1) + np.outer(np.sin(azimuth), e2)
+    return (point + heights[:, None, None] * direction + radii[:, None, None] * ring).reshape(-1, 3)
 
 
 def ends_alike(points: np.ndarray, point: np.ndarray, direction: np.ndarray) -> bool:

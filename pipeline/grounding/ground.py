@@ -14,6 +14,7 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
+from pipeline.contact.symmetry import revolved
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.box_outline import turned_to_outline
 from pipeline.grounding.handle import HandledBody, ends_by_print, handle_hypotheses, handled_body, turn_by_handle
@@ -332,20 +333,24 @@ def _on_goal_outline(
 ) -> Similarity:
     """A model's goal turned and moved along the table to where the goal mask's outline shows it, for bodies whose
     whole shape the capture gives: a box turned about the vertical (box_outline.py) and moved, a handled body spun
-    about its axis (handle_outline.py) and moved (outline_place.py). The outline does not depend on the model's
-    depth, which tilts a small box's faces, lays a mug's handle along a grown mask and puts a large pan centimetres
-    off."""
+    about its axis (handle_outline.py) and moved, a body of revolution moved (outline_place.py). The outline does not
+    depend on the model's depth, which tilts a small box's faces, lays a mug's handle along a grown mask and puts a
+    large pan or a bowl centimetres off."""
     box = seen_box(*seen0) if shape.kind == "box" else None
-    if box is None and handled is None:
+    round_body = shape.axis is not None and handled is None  # a ball has no axis: ray_rest placed it
+    if box is None and handled is None and not round_body:
         return motion
     outline = goal_outline(inp.mask1, pp.depth1, inp.intrinsics)
     if outline is None:
         return motion
     if box is not None:
-        turned = turned_to_outline(motion, box, up, outline)
-        return placed_on_outline(turned, box.corners, box.centre, up, outline, size)
-    whole = handled.whole()
-    return placed_on_outline(spun_to_outline(motion, handled, whole, outline), whole, handled.centre, up, outline, size)
+        motion, whole, centre = turned_to_outline(motion, box, up, outline), box.corners, box.centre
+    elif handled is not None:
+        whole, centre = handled.whole(), handled.centre
+        motion = spun_to_outline(motion, handled, whole, outline)
+    else:
+        whole, centre = revolved(seen0[0], shape.centre, shape.axis / np.linalg.norm(shape.axis)), shape.centre
+    return placed_on_outline(motion, whole, centre, up, outline, size)
 
 
 def _up_direction(

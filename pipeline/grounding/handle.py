@@ -21,7 +21,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
-from pipeline.contact.symmetry import basis_across, slice_radii
+from pipeline.contact.symmetry import revolved
 from pipeline.grounding.compare import spins_about
 from pipeline.grounding.seen_symmetry import handle_azimuth, handle_points, standing_axis, vertical_axis_centre
 from pipeline.grounding.seen_turns import read_turns
@@ -39,7 +39,6 @@ OUTLINE_GROW_PX = 3  # the swept points' gaps closed, and a mask's outline a few
 BETTER_BY = 0.2  # of the handle's points: a turn must explain this share more of them than the motion's own
 HANDLE_TOLS = 2.0  # a thin handle's goal depth bleeds toward what lies behind it: it is in front only this far
 TIED = 0.05  # turns within this share of the best explain the goal as well: the handle hides behind the body
-WHOLE_AZIMUTHS, RIM_PERCENTILE = 24, 95  # the whole body drawn from its seen slices
 
 
 def handle_hypotheses(
@@ -73,14 +72,9 @@ class HandledBody:
     middle: np.ndarray
 
     def whole(self) -> np.ndarray:
-        """(N, 3) points on the whole of it: each slice of the body's seen points along the axis (slice_radii) spun
-        round it at the slice's radius (its RIM_PERCENTILE: a rim, not a stray), with the handle's points."""
-        heights, radii = slice_radii(self.body, self.centre, self.axis, RIM_PERCENTILE)
-        e1, e2 = basis_across(self.axis)
-        azimuth = np.linspace(0.0, 2.0 * np.pi, WHOLE_AZIMUTHS, endpoint=False)
-        ring = np.outer(np.cos(azimuth), e1) + np.outer(np.sin(azimuth), e2)
-        rings = self.centre + heights[:, None, None] * self.axis + radii[:, None, None] * ring
-        return np.vstack([rings.reshape(-1, 3), self.handle])
+        """(N, 3) points on the whole of it: the body's seen slices spun round its axis (revolved), with the handle's
+        points."""
+        return np.vstack([revolved(self.body, self.centre, self.axis), self.handle])
 
 
 def handled_body(seen0: tuple[np.ndarray, np.ndarray], up: np.ndarray) -> HandledBody | None:
