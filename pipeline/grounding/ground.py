@@ -17,6 +17,7 @@ from scipy.spatial import cKDTree
 from pipeline.contact.symmetry import revolved
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.box_outline import turned_to_outline
+from pipeline.grounding.disc_outline import tipped_disc
 from pipeline.grounding.handle import HandledBody, ends_by_print, handle_hypotheses, handled_body, turn_by_handle
 from pipeline.grounding.handle_outline import spun_to_outline
 from pipeline.grounding.hypotheses import (
@@ -107,6 +108,12 @@ def _ground(
         twin = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
         if twin.ranked > chosen.ranked:
             chosen = twin
+    if chosen.score < cfg.min_view_score and not chosen.hinted and not inp.depth1_measured and shape.axis is not None:
+        # nothing explains the views: a flat body tipped onto its rim, read off its goal outline (disc_outline.py)
+        scene = _scene_around(pp.points0, inp.mask0)
+        tipped = tipped_disc(view0, view1, K, size, cfg, (shape.centre, shape.axis), seen0[0], scene, up, inp.mask1)
+        if tipped is not None and tipped.score >= cfg.min_view_score:
+            chosen = tipped
     sim, view_score, hinted = chosen.motion, chosen.score, chosen.hinted
     fine = fine_tolerance(size, cfg)
     handled = handled_body(seen0, up) if shape.kind == "none" and not hinted else None

@@ -64,11 +64,11 @@ def rest_along_ray(
         upright = least_tilting_spin(motion, spin[1], spin[0], up)
         if tilt_deg(upright.R, up) > SPUN_UPRIGHT_DEG:
             return motion, 0.0
-    start = _height_above_support(cloud0, scene0, up, RESTED_M)
+    start = height_above_support(cloud0, scene0, up, RESTED_M)
     if start is None:  # nothing beneath it within RESTED_M: it did not rest
         return motion, 0.0
     goal = upright.apply(cloud0)
-    now = _height_above_support(goal, scene0, up, MAX_SHIFT_M)
+    now = height_above_support(goal, scene0, up, MAX_SHIFT_M)
     if now is None or not min_gap_m <= abs(now - start) <= MAX_SHIFT_M:
         return motion, 0.0
     ray = goal.mean(axis=0) if through is None else motion.apply(through[None])[0]
@@ -94,7 +94,7 @@ def ball_surface(centre: np.ndarray, radius: float, count: int = 256) -> np.ndar
     return centre + radius * sphere_directions(count)
 
 
-def _height_above_support(points: np.ndarray, scene: np.ndarray, up: np.ndarray, reach: float) -> float | None:
+def height_above_support(points: np.ndarray, scene: np.ndarray, up: np.ndarray, reach: float) -> float | None:
     """How far the points' middle stands above the scene beneath them (the median height of the scene points under
     their footprint within `reach` of their lowest either way: the highest of them would be the noisiest), None
     when nothing is seen there or it is not level (LEVEL_SPREAD_M). The middle, not the lowest: a motion a few

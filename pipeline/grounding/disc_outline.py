@@ -1,0 +1,124 @@
+"""A flat body of revolution tipped up in the goal, from the ellipse its outline makes.
+
+A plate tipped onto its rim shows the camera its other face or its edge, and a model's depth of it is poor: the
+hypotheses that the features and the sweep give keep its seen face toward the camera, and none of them explains the
+views (raycast plates tipped 20-90 deg were refused at view agreements of 0.21-0.29, the true motion's 0.73-0.82).
+Its outline does not depend on that depth. A disc casts an ellipse whose short axis over its long one is the cosine
+of the disc's tilt from the line of sight, the short axis lying along the disc's axis as the image shows it, and
+whose long axis is the disc's width. That leaves four tilts (toward or away from the camera, either face first);
+the one whose agreement over all points (Agreement.whole) is best is set down on the table beneath it (the goal
+rests on its rim), refined by ICP and set down again.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from drivers.types import CameraIntrinsics
+from pipeline.contact.symmetry import revolved, slice_radii
+from pipeline.grounding.ray_rest import LOWEST_PERCENTILE, MIN_RAY_SLOPE, height_above_support
+from pipeline.grounding.select import Selected, fine_tolerance, select_motion
+from pipeline.grounding.silhouette import largest_outline
+from pipeline.grounding.types import GroundingConfig
+from pipeline.grounding.umeyama import Similarity
+from pipeline.grounding.verify import View, view_evidences
+
+FLAT_REL = 0.3  # seen along its axis less than this share of its width: flat (a plate; a bowl is not)
+SUPPORT_REACH_M = 0.05  # the table is looked for this far above or below the goal's lowest point
+
+
+def tipped_disc(
+    view0: View,
+    view1: View,
+    K: CameraIntrinsics,
+    size: float,
+    cfg: GroundingConfig,
+    axis: tuple[np.ndarray, np.ndarray],
+    seen0: np.ndarray,
+    scene0: np.ndarray,
+    up: np.ndarray,
+    mask1: np.ndarray,
+) -> Selected | None:
+    """The motion that stands the flat body of revolution (`axis`: a point on its axis and its direction, `seen0`:
+    its seen points, all as at the start, camera frame) where the goal mask's ellipse shows it, resting on the table
+    (`scene0`: the capture's other points, `up`: the table's normal); None where it is not flat, the outline is cut,
+    or nothing level is seen beneath it."""
+    point, direction = axis[0], axis[1] / np.linalg.norm(axis[1])
+    heights, radii = slice_radii(seen0, point, direction)
+    if len(radii) == 0 or np.ptp(heights) >= FLAT_REL * 2.0 * radii.max():
+        return None
+    middle = point + 0.5 * (heights.min() + heights.max()) * direction
+    tilts = _disc_tilts(mask1, K, middle, direction, 2.0 * float(radii.max()))
+    if not tilts:
+        return None
+    fine = fine_tolerance(size, cfg)
+    whole = [agreement.whole for agreement, _ in view_evidences(tilts, view0, view1, K, fine)]
+    body, up = revolved(seen0, point, direction), up / np.linalg.norm(up)
+    down = _set_down(tilts[int(np.argmax(whole))], body, middle, scene0, up)
+    if down is None:
+        return None
+    refined = select_motion([down], view0, view1, K, size, cfg)
+    again = _set_down(refined.motion, body, middle, scene0, up) or refined.motion
+    agreement = view_evidences([again], view0, view1, K, fine)[0][0]
+    return Selected(again, agreement, refined.fitness)
+
+
+def _disc_tilts(
+    mask1: np.ndarray, K: CameraIntrinsics, middle: np.ndarray, direction: np.ndarray, width: float
+) -> list[Similarity]:
+    """The four motions that carry the disc (its `middle` and axis `direction`, as at the start; `width` [m]) to
+    where the ellipse fitted to the goal mask's outline shows it: its centre on the ray through the ellipse's, as far
+    as the long axis makes its width, its axis tilted either way about the long axis, either face first."""
+    outline = largest_outline(mask1)
+    if outline is None or len(outline) < 5:
+        return []
+    (u, v), (a, b), angle = cv2.fitEllipse(outline)
+    long_px, short_px = max(a, b), min(a, b)
+    across = np.radians(angle) + (0.0 if a < b else np.pi / 2)  # OpenCV's angle is that of the side of length a
+    goal = K.unproject(np.array([[u, v]]), np.array([K.fx * width / long_px]))[0]
+    ray = goal / np.linalg.norm(goal)
+    short = np.array([np.cos(across), np.sin(across), 0.0])
+    short -= (short @ ray) * ray  # the short axis as a direction across the ray
+    short /= np.linalg.norm(short)
+    cos = short_px / long_px
+    sin = np.sqrt(max(0.0, 1.0 - cos * cos))
+    motions = []
+    for face in (1.0, -1.0):
+        for lean in (1.0, -1.0):
+            R = _turn_onto(direction, face * (-cos * ray + lean * sin * short))
+            motions.append(Similarity(1.0, R, goal - R @ middle))
+    return motions
+
+
+def _turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(3, 3) the least turn that carries unit vector a onto unit vector b."""
+    axis = np.cross(a, b)
+    s = float(np.linalg.norm(axis))
+    if s < 1e-9:
+        return np.eye(3) if a @ b > 0 else Rotation.from_rotvec(np.pi * _any_across(a)).as_matrix()
+    return Rotation.from_rotvec(np.arctan2(s, float(a @ b)) * axis / s).as_matrix()
+
+
+def _any_across(a: np.ndarray) -> np.ndarray:
+    """A unit vector across unit vector a."""
+    other = np.eye(3)[int(np.argmin(np.abs(a)))]
+    across = np.cross(a, other)
+    return across / np.linalg.norm(across)
+
+
+def _set_down(
+    motion: Similarity, body: np.ndarray, middle: np.ndarray, scene0: np.ndarray, up: np.ndarray
+) -> Similarity | None:
+    """`motion` moved along the camera ray through the body's goal `middle` until its lowest point (of the whole
+    `body`, as at the start) touches the level scene beneath it; None where nothing level is seen there or the ray
+    hardly changes height."""
+    goal = motion.apply(body)
+    above = height_above_support(goal, scene0, up, SUPPORT_REACH_M)  # of the goal's middle height
+    ray = motion.apply(middle[None])[0]
+    ray /= np.linalg.norm(ray)
+    if above is None or abs(ray @ up) < MIN_RAY_SLOPE:
+        return None
+    gap = above - (float(np.mean(goal @ up)) - float(np.percentile(goal @ up, LOWEST_PERCENTILE)))
+    return Similarity(motion.scale, motion.R, motion.t - gap / float(ray @ up) * ray)
