@@ -242,3 +242,17 @@ def compare(
         position_tol_m=position_tol_m,
         rotation_tol_deg=rotation_tol_deg,
     )
+
+
+def turns_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(M, 3, 3) the least rotations taking unit `a` (3,) onto each unit row of `b` (M, 3) (a half turn square to `a`
+    where they are opposite)."""
+    c = b @ a
+    v = np.cross(a, b)
+    V = np.zeros((len(b), 3, 3))
+    V[:, 0, 1], V[:, 0, 2], V[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
+    V[:, 1, 0], V[:, 2, 0], V[:, 2, 1] = v[:, 2], -v[:, 1], v[:, 0]
+    R = np.eye(3) + V + V @ V / np.maximum(1.0 + c, 1e-9)[:, None, None]
+    opposite = c < -1.0 + 1e-9
+    R[opposite] = half_turn_across(a)
+    return R

@@ -14,10 +14,10 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import revolved, slice_radii
+from pipeline.grounding.compare import turns_onto
 from pipeline.grounding.ray_rest import LOWEST_PERCENTILE, MIN_RAY_SLOPE, height_above_support
 from pipeline.grounding.select import Selected, fine_tolerance, select_motion
 from pipeline.grounding.silhouette import largest_outline
@@ -84,28 +84,8 @@ def _disc_tilts(
     short /= np.linalg.norm(short)
     cos = short_px / long_px
     sin = np.sqrt(max(0.0, 1.0 - cos * cos))
-    motions = []
-    for face in (1.0, -1.0):
-        for lean in (1.0, -1.0):
-            R = _turn_onto(direction, face * (-cos * ray + lean * sin * short))
-            motions.append(Similarity(1.0, R, goal - R @ middle))
-    return motions
-
-
-def _turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(3, 3) the least turn that carries unit vector a onto unit vector b."""
-    axis = np.cross(a, b)
-    s = float(np.linalg.norm(axis))
-    if s < 1e-9:
-        return np.eye(3) if a @ b > 0 else Rotation.from_rotvec(np.pi * _any_across(a)).as_matrix()
-    return Rotation.from_rotvec(np.arctan2(s, float(a @ b)) * axis / s).as_matrix()
-
-
-def _any_across(a: np.ndarray) -> np.ndarray:
-    """A unit vector across unit vector a."""
-    other = np.eye(3)[int(np.argmin(np.abs(a)))]
-    across = np.cross(a, other)
-    return across / np.linalg.norm(across)
+    normals = [face * (-cos * ray + lean * sin * short) for face in (1.0, -1.0) for lean in (1.0, -1.0)]
+    return [Similarity(1.0, R, goal - R @ middle) for R in turns_onto(direction, np.array(normals))]
 
 
 def _set_down(

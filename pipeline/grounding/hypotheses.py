@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import ball_centre, basis_across
-from pipeline.grounding.compare import half_turn_across, sphere_directions, spins_about
+from pipeline.grounding.compare import half_turn_across, sphere_directions, spins_about, turns_onto
 from pipeline.grounding.types import SeenSymmetry
 from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import COLOUR_WEIGHT, View, depth_tolerance
@@ -347,7 +347,7 @@ def axis_hypotheses(
         return []
     a0 = shape.axis / np.linalg.norm(shape.axis)
     d = sphere_directions(AXIS_DIRECTIONS)
-    onto = _onto(a0, d)
+    onto = turns_onto(a0, d)
     seen = _across(onto @ _across(view0.cloud.mean(axis=0) - shape.centre, a0), d)  # the seen side, off the axis
     want = _across(np.broadcast_to(-view1.cloud.mean(axis=0), d.shape), d)  # toward the goal camera
     angle = np.arctan2(np.einsum("ij,ij->i", np.cross(seen, want), d), np.einsum("ij,ij->i", seen, want))
@@ -364,17 +364,3 @@ def _across(v: np.ndarray, axis: np.ndarray) -> np.ndarray:
     fallback = np.cross(axis, helper)
     fallback /= np.linalg.norm(fallback, axis=-1, keepdims=True)
     return np.where(n > 1e-9, w / np.maximum(n, 1e-12), fallback)
-
-
-def _onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(M, 3, 3) the least rotations taking unit `a` (3,) onto each unit row of `b` (M, 3) (a half turn square to `a`
-    where they are opposite)."""
-    c = b @ a
-    v = np.cross(a, b)
-    V = np.zeros((len(b), 3, 3))
-    V[:, 0, 1], V[:, 0, 2], V[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
-    V[:, 1, 0], V[:, 2, 0], V[:, 2, 1] = v[:, 2], -v[:, 1], v[:, 0]
-    R = np.eye(3) + V + V @ V / np.maximum(1.0 + c, 1e-9)[:, None, None]
-    opposite = c < -1.0 + 1e-9
-    R[opposite] = half_turn_across(a)
-    return R

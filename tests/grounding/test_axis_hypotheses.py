@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.grounding.compare import sphere_directions
-from pipeline.grounding.hypotheses import AXIS_DIRECTIONS, _onto, axis_hypotheses
+from pipeline.grounding.compare import sphere_directions, turns_onto
+from pipeline.grounding.hypotheses import AXIS_DIRECTIONS, axis_hypotheses
 from pipeline.grounding.prepare import prepare
 from pipeline.grounding.seen_symmetry import off_support, shape_symmetry
 from pipeline.grounding.types import GroundingConfig, GroundingInput, SeenSymmetry
@@ -28,7 +28,7 @@ def test_the_directions_cover_the_sphere_and_each_is_reached_by_a_least_rotation
     assert np.degrees(np.arccos(np.clip((anywhere @ directions.T).max(axis=1), -1, 1))).max() < 7.0
     a = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
     targets = np.vstack([directions, a, -a])  # the same direction and the opposite one too
-    R = _onto(a, targets)
+    R = turns_onto(a, targets)
     assert np.allclose(R @ a, targets, atol=1e-9)
     assert np.allclose(R @ R.transpose(0, 2, 1), np.eye(3), atol=1e-9)
     assert np.allclose(np.linalg.det(R), 1.0)
