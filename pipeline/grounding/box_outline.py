@@ -5,7 +5,9 @@ smoothed over that bleed, a slow warp left under it), and the registration follo
 out turned 6-25 deg about the vertical from where the goal image shows them (raycast pairs). The outline does not
 depend on that depth. A box's outline is the convex hull of its eight corners' images: the capture's measured points
 give the box (seen_symmetry.seen_box), the motion carries it to the goal, and of its turns about the vertical through
-its goal centre the one is taken whose hull lies along the goal mask's outline best (outline_fit.py).
+its goal centre the one is taken whose hull lies along the goal mask's outline best (outline_fit.py). Where the
+depth also leaned a box standing on the table (by 10-24 deg: no turn about the vertical then fits), its turns are
+tried set down on the face nearest the table too (face_down), and the best of either kept.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from pipeline.grounding.compare import turns_onto
 from pipeline.grounding.outline_fit import GoalOutline, parabola_vertex
 from pipeline.grounding.seen_symmetry import SeenBox
 from pipeline.grounding.umeyama import Similarity
@@ -22,23 +25,57 @@ MIN_ALONG = 0.7  # the hull's share along the outline at its best turn: less, an
 # a hull drawn from seen points and a ragged outline tell a turn to a degree or two: a smaller one is left to the
 # depth (MuJoCo boxes, their goal depth good to 0.2 %, came out 0.1 -> 1.3 deg off)
 MIN_TURN_DEG = 2.0
+# a box rests on a face: a model's goal depth had leaned standing boxes by 10-24 deg (their outline no turn about the
+# vertical fitted), while a box leaning further may stand on an edge as the goal shows it
+FACE_DOWN_DEG = 25.0
 
 
 def turned_to_outline(motion: Similarity, box: SeenBox, up: np.ndarray, outline: GoalOutline) -> Similarity:
     """`motion` turned about the vertical `up` (unit, camera frame) through the box's goal centre so that the goal
-    box's outline lies along the goal mask's; `motion` itself where no turn fits it (MIN_ALONG) or the turn is within
-    what the outline tells (MIN_TURN_DEG)."""
+    box's outline lies along the goal mask's, tried as it is and set down on the face nearest the table
+    (face_down); `motion` itself where no turn fits it (MIN_ALONG) or the turn is within what the outline tells
+    (MIN_TURN_DEG)."""
     centre = motion.apply(box.centre[None])[0]
-    goal = motion.apply(box.corners) - centre
+    starts = [motion] + [flat for flat in (face_down(motion, box, up),) if flat is not None]
     angles = np.radians(np.arange(-SPAN_DEG, SPAN_DEG + 1e-9, STEP_DEG))
-    turned = np.einsum("aij,cj->aci", Rotation.from_rotvec(angles[:, None] * up).as_matrix(), goal) + centre
-    fits = outline.fits(turned)
-    best = int(np.argmin(fits.cost))
-    if fits.along[best] < MIN_ALONG:
+    turns = Rotation.from_rotvec(angles[:, None] * up).as_matrix()
+    goals = [start.apply(box.corners) - centre for start in starts]
+    fits = outline.fits(np.concatenate([np.einsum("aij,cj->aci", turns, goal) + centre for goal in goals]))
+    cost = fits.cost.reshape(len(starts), len(angles))
+    which, best = np.unravel_index(int(np.argmin(cost)), cost.shape)
+    if fits.along.reshape(cost.shape)[which, best] < MIN_ALONG:
         return motion
-    vertex = parabola_vertex(*fits.cost[best - 1 : best + 2]) if 0 < best < len(angles) - 1 else 0.0
+    vertex = parabola_vertex(*cost[which, best - 1 : best + 2]) if 0 < best < len(angles) - 1 else 0.0
     angle = angles[best] + np.radians(STEP_DEG) * vertex
+    start = starts[which]
     if abs(angle) < np.radians(MIN_TURN_DEG):
-        return motion
+        return start
     Y = Rotation.from_rotvec(angle * up).as_matrix()
-    return Similarity(motion.scale, Y @ motion.R, Y @ (motion.t - centre) + centre)
+    return Similarity(start.scale, Y @ start.R, Y @ (start.t - centre) + centre)
+
+
+def face_down(motion: Similarity, box: SeenBox, up: np.ndarray) -> Similarity | None:
+    """`motion` turned about the box's goal centre so that the goal box's face nearest the table lies on it (its
+    normal along the vertical `up`, unit), where that face leans by under FACE_DOWN_DEG; None where it leans more
+    or not at all."""
+    normal, lean = _lowest_face(motion, box, up)
+    if not 1e-6 < lean < FACE_DOWN_DEG:
+        return None
+    G = turns_onto(normal, up[None])[0]
+    centre = motion.apply(box.centre[None])[0]
+    return Similarity(motion.scale, G @ motion.R, G @ (motion.t - centre) + centre)
+
+
+def face_lean_deg(motion: Similarity, box: SeenBox, up: np.ndarray) -> float:
+    """How far [deg] the goal box's face nearest the table leans off it."""
+    return _lowest_face(motion, box, up)[1]
+
+
+def _lowest_face(motion: Similarity, box: SeenBox, up: np.ndarray) -> tuple[np.ndarray, float]:
+    """(the outward normal of the goal box's face nearest the table, turned to face down the vertical `up`; how far
+    [deg] it leans off it)."""
+    faces = motion.R @ box.frame
+    along = faces.T @ up
+    k = int(np.argmax(np.abs(along)))
+    normal = faces[:, k] * np.sign(along[k])
+    return normal, float(np.degrees(np.arccos(np.clip(normal @ up, -1.0, 1.0))))

@@ -18,7 +18,7 @@ import numpy as np
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import revolved, slice_radii
 from pipeline.grounding.compare import turns_onto
-from pipeline.grounding.ray_rest import LOWEST_PERCENTILE, MIN_RAY_SLOPE, height_above_support
+from pipeline.grounding.ray_rest import set_down
 from pipeline.grounding.select import Selected, fine_tolerance, select_motion
 from pipeline.grounding.silhouette import largest_outline
 from pipeline.grounding.types import GroundingConfig
@@ -26,7 +26,6 @@ from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View, view_evidences
 
 FLAT_REL = 0.3  # seen along its axis less than this share of its width: flat (a plate; a bowl is not)
-SUPPORT_REACH_M = 0.05  # the table is looked for this far above or below the goal's lowest point
 
 
 def tipped_disc(
@@ -56,11 +55,11 @@ def tipped_disc(
     fine = fine_tolerance(size, cfg)
     whole = [agreement.whole for agreement, _ in view_evidences(tilts, view0, view1, K, fine)]
     body, up = revolved(seen0, point, direction), up / np.linalg.norm(up)
-    down = _set_down(tilts[int(np.argmax(whole))], body, middle, scene0, up)
+    down = set_down(tilts[int(np.argmax(whole))], body, middle, scene0, up)
     if down is None:
         return None
     refined = select_motion([down], view0, view1, K, size, cfg)
-    again = _set_down(refined.motion, body, middle, scene0, up) or refined.motion
+    again = set_down(refined.motion, body, middle, scene0, up) or refined.motion
     agreement = view_evidences([again], view0, view1, K, fine)[0][0]
     return Selected(again, agreement, refined.fitness)
 
@@ -86,19 +85,3 @@ def _disc_tilts(
     sin = np.sqrt(max(0.0, 1.0 - cos * cos))
     normals = [face * (-cos * ray + lean * sin * short) for face in (1.0, -1.0) for lean in (1.0, -1.0)]
     return [Similarity(1.0, R, goal - R @ middle) for R in turns_onto(direction, np.array(normals))]
-
-
-def _set_down(
-    motion: Similarity, body: np.ndarray, middle: np.ndarray, scene0: np.ndarray, up: np.ndarray
-) -> Similarity | None:
-    """`motion` moved along the camera ray through the body's goal `middle` until its lowest point (of the whole
-    `body`, as at the start) touches the level scene beneath it; None where nothing level is seen there or the ray
-    hardly changes height."""
-    goal = motion.apply(body)
-    above = height_above_support(goal, scene0, up, SUPPORT_REACH_M)  # of the goal's middle height
-    ray = motion.apply(middle[None])[0]
-    ray /= np.linalg.norm(ray)
-    if above is None or abs(ray @ up) < MIN_RAY_SLOPE:
-        return None
-    gap = above - (float(np.mean(goal @ up)) - float(np.percentile(goal @ up, LOWEST_PERCENTILE)))
-    return Similarity(motion.scale, motion.R, motion.t - gap / float(ray @ up) * ray)

@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 
 from pipeline.contact.symmetry import revolved
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
-from pipeline.grounding.box_outline import turned_to_outline
+from pipeline.grounding.box_outline import face_lean_deg, turned_to_outline
 from pipeline.grounding.disc_outline import tipped_disc
 from pipeline.grounding.handle import HandledBody, ends_by_print, handle_hypotheses, handled_body, turn_by_handle
 from pipeline.grounding.handle_outline import spun_to_outline
@@ -32,7 +32,7 @@ from pipeline.grounding.matching import Matches, match_pixels, pairwise_consiste
 from pipeline.grounding.outline_fit import goal_outline
 from pipeline.grounding.outline_place import placed_on_outline
 from pipeline.grounding.prepare import Prepared, prepare, refuse
-from pipeline.grounding.ray_rest import MIN_GAP_M, ball_surface, rest_along_ray
+from pipeline.grounding.ray_rest import MIN_GAP_M, ball_surface, rest_along_ray, set_down
 from pipeline.grounding.seen_symmetry import as_seen, off_support, seen_box, shape_symmetry
 from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.select import fine_tolerance, select_motion
@@ -45,6 +45,8 @@ from pipeline.grounding.workers import one_thread_each, workers
 from pipeline.perception.features import FeatureExtractor
 
 MAX_CONSISTENCY_MATCHES = 1500
+SET_ON_FACE_DEG = 0.01  # a box the outline set on a face leans less than this off the table ...
+SET_DOWN_LEAN_DEG = 5.0  # ... and is set down on the table where it had leaned this much (box_outline.face_down)
 OUTLINE_PX = 4  # a mask's outline is this many pixels off at most (a segmenter's dilation, a ragged edge)
 ALIGNED_RESIDUAL_OF_THRESHOLD = 0.5  # an inlier RMS above this share of the inlier threshold is no alignment
 MAX_ACROSS_REL = 1.0  # the outline moving the goal further across the ray than the object's size: they disagree
@@ -200,7 +202,7 @@ def _ground(
         spin = None if shape.axis is None else (shape.centre, shape.axis)  # its turns about its axis look alike
         scene = _scene_around(pp.points0, inp.mask0)
         placed, rested = rest_along_ray(placed, body0, scene, up, min_gap, through, spin)
-        placed = _on_goal_outline(placed, shape, seen0, handled, up, inp, pp, size)
+        placed = _on_goal_outline(placed, shape, seen0, handled, up, inp, pp, size, scene)
     centre = pp.cloud0.mean(axis=0)
     t_rigid = placed.apply(centre[None])[0] - placed.R @ centre  # the centre lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))
@@ -337,12 +339,14 @@ def _on_goal_outline(
     inp: GroundingInput,
     pp: Prepared,
     size: float,
+    scene: np.ndarray,
 ) -> Similarity:
     """A model's goal turned and moved along the table to where the goal mask's outline shows it, for bodies whose
-    whole shape the capture gives: a box turned about the vertical (box_outline.py) and moved, a handled body spun
-    about its axis (handle_outline.py) and moved, a body of revolution moved (outline_place.py). The outline does not
-    depend on the model's depth, which tilts a small box's faces, lays a mug's handle along a grown mask and puts a
-    large pan or a bowl centimetres off."""
+    whole shape the capture gives: a box turned about the vertical (box_outline.py; where that sets it on a face, set
+    down on the table in `scene`, the capture's other points) and moved, a handled body spun about its axis
+    (handle_outline.py) and moved, a body of revolution moved (outline_place.py). The outline does not depend on the
+    model's depth, which leans a small box off its face, lays a mug's handle along a grown mask and puts a large pan
+    or a bowl centimetres off."""
     box = seen_box(*seen0) if shape.kind == "box" else None
     round_body = shape.axis is not None and handled is None  # a ball has no axis: ray_rest placed it
     if box is None and handled is None and not round_body:
@@ -351,7 +355,12 @@ def _on_goal_outline(
     if outline is None:
         return motion
     if box is not None:
-        motion, whole, centre = turned_to_outline(motion, box, up, outline), box.corners, box.centre
+        turned = turned_to_outline(motion, box, up, outline)
+        if face_lean_deg(turned, box, up) < SET_ON_FACE_DEG and face_lean_deg(motion, box, up) >= SET_DOWN_LEAN_DEG:
+            # set on a face from a lean ray_rest took for a tip: it stands on the table (its seen corners' bottom is
+            # a few millimetres up, cut at the support: not worth it for a small lean, whose height ray_rest set)
+            turned = set_down(turned, box.corners, box.centre, scene, up) or turned
+        motion, whole, centre = turned, box.corners, box.centre
     elif handled is not None:
         whole, centre = handled.whole(), handled.centre
         motion = spun_to_outline(motion, handled, whole, outline)

@@ -32,6 +32,7 @@ MIN_GAP_M = 0.002  # ... and under this it is within what the heights are read t
 MIN_RAY_SLOPE = 0.2  # a ray this close to horizontal hardly changes height along it
 BENEATH_M = 0.02  # scene points within this of the object's footprint (across the vertical) are beneath it
 MIN_SUPPORT_POINTS = 20
+SET_DOWN_REACH_M = 0.05  # a goal set down looks for the table this far above or below its lowest point
 LEVEL_SPREAD_M = 0.01  # a support's heights beneath spread this much at most (p10-p90; a table read 1-4 mm)
 
 
@@ -105,3 +106,19 @@ def height_above_support(points: np.ndarray, scene: np.ndarray, up: np.ndarray, 
     if len(heights) < MIN_SUPPORT_POINTS or np.ptp(np.percentile(heights, [10, 90])) > LEVEL_SPREAD_M:
         return None  # nothing seen beneath, or no one level to stand on (the inside of a bowl)
     return float(np.mean(points @ up)) - float(np.median(heights))
+
+
+def set_down(
+    motion: Similarity, body: np.ndarray, middle: np.ndarray, scene0: np.ndarray, up: np.ndarray
+) -> Similarity | None:
+    """`motion` moved along the camera ray through the body's goal `middle` until its lowest point (of the whole
+    `body`, as at the start) touches the level scene beneath it; None where nothing level is seen there or the ray
+    hardly changes height."""
+    goal = motion.apply(body)
+    above = height_above_support(goal, scene0, up, SET_DOWN_REACH_M)  # of the goal's middle height
+    ray = motion.apply(middle[None])[0]
+    ray /= np.linalg.norm(ray)
+    if above is None or abs(ray @ up) < MIN_RAY_SLOPE:
+        return None
+    gap = above - (float(np.mean(goal @ up)) - float(np.percentile(goal @ up, LOWEST_PERCENTILE)))
+    return Similarity(motion.scale, motion.R, motion.t - gap / float(ray @ up) * ray)

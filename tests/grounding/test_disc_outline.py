@@ -10,7 +10,8 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import basis_across
-from pipeline.grounding.disc_outline import _disc_tilts, _set_down
+from pipeline.grounding.disc_outline import _disc_tilts
+from pipeline.grounding.ray_rest import set_down
 from pipeline.grounding.umeyama import Similarity
 
 K = CameraIntrinsics(320, 240, 300.0, 300.0, 160.0, 120.0)
@@ -40,7 +41,7 @@ def test_one_of_the_ellipses_tilts_is_the_plates(tip_deg, grow_px):
     """A plate tipped up onto its rim (about the table's horizontal, then spun about the vertical): of the four tilts
     its goal outline's ellipse allows, one stands it within 8 deg of the truth with its middle within 1 cm of the ray
     through the true one, its mask as it is or grown by a few pixels (which the ellipse's axes take as a few degrees'
-    more tilt, ICP's to polish, and as the plate nearer along the ray, _set_down's to find)."""
+    more tilt, ICP's to polish, and as the plate nearer along the ray, ray_rest.set_down's to find)."""
     plate = _plate(np.random.default_rng(1))
     tip = Rotation.from_rotvec(np.radians(tip_deg) * np.array([1.0, 0.0, 0.0])).as_matrix()
     spin = Rotation.from_rotvec(np.radians(30.0) * UP).as_matrix()
@@ -69,9 +70,9 @@ def test_a_goal_is_set_down_on_the_level_table_beneath_it():
     ray = resting.apply(START[None])[0]
     ray /= np.linalg.norm(ray)
     floating = Similarity(1.0, tip, resting.t + 0.03 / float(ray @ UP) * ray)
-    down = _set_down(floating, plate, START, table, UP)
+    down = set_down(floating, plate, START, table, UP)
     assert abs(float(np.min(down.apply(plate) @ UP)) - float(table_at @ UP)) < 0.001
-    assert _set_down(floating, plate, START, table[:10], UP) is None
+    assert set_down(floating, plate, START, table[:10], UP) is None
 
 
 @pytest.mark.parametrize("index", [46, 94])
