@@ -75,6 +75,8 @@ def _disc_tilts(
         return []
     (u, v), (a, b), angle = cv2.fitEllipse(outline)
     long_px, short_px = max(a, b), min(a, b)
+    if not short_px > 0.0:  # a line of pixels: no ellipse
+        return []
     across = np.radians(angle) + (0.0 if a < b else np.pi / 2)  # OpenCV's angle is that of the side of length a
     goal = K.unproject(np.array([[u, v]]), np.array([K.fx * width / long_px]))[0]
     ray = goal / np.linalg.norm(goal)

@@ -28,6 +28,7 @@ HIDDEN_PROBE_PX = 4  # the goal depth read this far outside the hull (past a mod
 IN_FRONT_M = 0.02  # ... this much nearer than the body's edge: something in front hides that stretch (a model's
 # depth is good to a centimetre or so there)
 MIN_SEEN_PX = 20  # a hull with fewer pixels in view than this shows nothing
+MIN_DEPTH_M = 1e-3  # a set of points reaching nearer the camera than this casts no outline
 
 
 @dataclass(frozen=True)
@@ -96,15 +97,22 @@ def parabola_vertex(a: float, b: float, c: float) -> float:
 
 def _hull_edges(point_sets: np.ndarray, K: CameraIntrinsics) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(points (P, 2), outward unit normals (P, 2), their depth [m] (P,), which set each is from (P,)): the outline
-    of each set of points' images (A, N, 3), their convex hull, sampled about every pixel."""
+    of each set of points' images (A, N, 3), their convex hull, sampled about every pixel. A set with a point at or
+    behind the camera, or with fewer than 3 points, casts none."""
     starts, ends, owner = [], [], []
+    middle = np.zeros((len(point_sets), 2))
     for k, points in enumerate(point_sets):
+        if len(points) < 3 or not np.all(points[:, 2] > MIN_DEPTH_M):
+            continue
         uv = K.project(points)
         hull = cv2.convexHull(uv.astype(np.float32), returnPoints=False).ravel()
         vertices = np.column_stack([uv[hull], points[hull, 2]])
         starts.append(vertices)
         ends.append(np.roll(vertices, -1, axis=0))
         owner.append(np.full(len(hull), k))
+        middle[k] = uv[hull].mean(axis=0)
+    if not starts:
+        return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=int)
     a, b, owner = np.concatenate(starts), np.concatenate(ends), np.concatenate(owner)
     edge = b[:, :2] - a[:, :2]
     length = np.maximum(np.linalg.norm(edge, axis=1), 1e-9)
@@ -114,7 +122,6 @@ def _hull_edges(point_sets: np.ndarray, K: CameraIntrinsics) -> tuple[np.ndarray
     along = (np.arange(len(which)) - first[which] + 0.5) / count[which]
     samples = a[which] + along[:, None] * (b - a)[which]
     normals = np.column_stack([edge[:, 1], -edge[:, 0]]) / length[:, None]  # outward on a counter-clockwise hull ...
-    middle = np.stack([v[:, :2].mean(axis=0) for v in starts])
     flip = np.einsum("ij,ij->i", normals, a[:, :2] - middle[owner]) < 0  # ... whichever way OpenCV ran it
     normals[flip] *= -1
     return samples[:, :2], normals[which], samples[:, 2], owner[which]

@@ -235,3 +235,15 @@ def test_a_box_leaned_off_its_face_is_set_down_on_it_and_turned_back(lean_deg, o
     assert _off_deg(turned_to_outline(given, box, UP, outline), TRUTH) < 1.5
     far = Rotation.from_rotvec(np.radians(FACE_DOWN_DEG + 5.0) * np.array([1.0, 0.0, 0.0])).as_matrix()
     assert face_down(Similarity(1.0, far, goal_centre - far @ goal_centre), box, UP) is None
+
+
+def test_a_body_reaching_behind_the_camera_casts_no_outline():
+    """A set of points one of which lies at or behind the camera (a fuzzed pair's motion) has no hull to fit: its
+    misfit is infinite and the other sets are fitted as alone."""
+    box = _box(START, 10.0)
+    outline = goal_outline(_goal_mask(box, TRUTH, 2, ragged=False), UNKNOWN, K)
+    behind = TRUTH.apply(box.corners)
+    behind[0, 2] = -0.1
+    fits = outline.fits(np.stack([behind, TRUTH.apply(box.corners)]))
+    assert np.isinf(fits.cost[0]) and fits.along[0] == 0.0
+    assert fits.cost[1] == outline.fits(TRUTH.apply(box.corners)[None]).cost[0]
