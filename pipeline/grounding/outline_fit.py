@@ -90,7 +90,10 @@ def goal_outline(mask1: np.ndarray, depth1: np.ndarray, K: CameraIntrinsics) -> 
 
 
 def parabola_vertex(a: float, b: float, c: float) -> float:
-    """Where, in steps from the middle one, the parabola through three costs a step apart is lowest (0 where flat)."""
+    """Where, in steps from the middle one, the parabola through three costs a step apart is lowest (0 where flat, or
+    where a cost is infinite: a hull hidden there)."""
+    if not np.isfinite([a, b, c]).all():
+        return 0.0
     curve = a - 2 * b + c
     return float(np.clip(0.5 * (a - c) / curve, -0.5, 0.5)) if curve > 0 else 0.0
 

@@ -247,3 +247,12 @@ def test_a_body_reaching_behind_the_camera_casts_no_outline():
     fits = outline.fits(np.stack([behind, TRUTH.apply(box.corners)]))
     assert np.isinf(fits.cost[0]) and fits.along[0] == 0.0
     assert fits.cost[1] == outline.fits(TRUTH.apply(box.corners)[None]).cost[0]
+
+
+def test_the_parabola_through_three_fits_is_lowest_between_them_and_nowhere_beside_a_hidden_one():
+    from pipeline.grounding.outline_fit import parabola_vertex
+
+    assert parabola_vertex(2.0, 1.0, 2.0) == 0.0
+    assert parabola_vertex(3.0, 1.0, 2.0) == pytest.approx(1.0 / 6.0)
+    assert parabola_vertex(np.inf, 1.0, 2.0) == 0.0  # not NaN
+    assert parabola_vertex(1.0, 1.0, 1.0) == 0.0
