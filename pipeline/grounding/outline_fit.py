@@ -2,13 +2,13 @@
 
 The goal mask's outline does not depend on the model's goal depth, which bleeds, warps and tilts a small object's
 surface by degrees and puts it centimetres off (prepare.py). A body whose whole shape the capture gives (a box's
-corners, a handled body's seen slices spun round its axis with its handle) casts, as a convex body would, the convex
-hull of its points' images; it is compared with the convex hull of the goal mask's largest outline. A segmenter's
-outline is a few pixels out all round (dilated or eroded), ragged, with holes, and a body's hull is no finer than its
-points: the fit takes out a uniform offset along the hull's normals and a shift of the whole hull by least squares,
-bounds what a stretch far off counts (OFF_PX: a neighbour bled onto) and leaves out the stretches that something in
-front hides (the goal depth just outside them nearer than the body's edge). What remains is the misfit of the body's
-shape; the shift is where the image shows the body across the camera ray.
+corners, a body of revolution's seen slices spun round its axis, a handled body's with its handle) casts, as a
+convex body would, the convex hull of its points' images; it is compared with the convex hull of the goal mask's
+largest outline. A segmenter's outline is a few pixels out all round (dilated or eroded), ragged, with holes, and a
+body's hull is no finer than its points: the fit takes out a uniform offset along the hull's normals and a shift of
+the whole hull by least squares, bounds what a stretch far off counts (OFF_PX: a neighbour bled onto) and leaves out
+the stretches that something in front hides (the goal depth just outside them nearer than the body's edge). What
+remains is the misfit of the body's shape; the shift is where the image shows the body across the camera ray.
 """
 
 from __future__ import annotations

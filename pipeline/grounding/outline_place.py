@@ -1,14 +1,14 @@
 """Where along the table a goal lies, read from the goal mask's outline.
 
 A model's goal depth can put a large object centimetres off along the table (a dilated mask's edge bled onto the far
-table pulls the goal cloud, and ICP with it, away from the camera): raycast pans slid or turned came out 12-46 mm off
-with their rotation right, the goal image showing them 5-9 pixels from where the motion put them. A body whose whole
-shape the capture gives (a box's corners, a handled body spun round its axis with its handle) is moved along the
-table, keeping its height above it (ray_rest.py set that), until its hull lies on the goal outline
-(outline_fit.py): the image shift the fit finds, turned into a move in the table's plane through the body's
-projection. Not moved where, so placed, the hull does not lie along the outline nearly all round (MIN_ALONG: a hull
-that only partly fits is no evidence where it lies), the shift is within the hull's own error (MIN_MOVE_PX) or the
-move is too large to be depth error (MAX_MOVE_REL).
+table pulls the goal cloud, and ICP with it, away from the camera): raycast pans slid or turned came out 12-46 mm
+off with their rotation right, the goal image showing them 5-9 pixels from where the motion put them. A body whose
+whole shape the capture gives (a box's corners, a body of revolution's seen slices spun round its axis, a handled
+body's with its handle) is moved along the table, keeping its height above it (ray_rest.py set that), until its hull
+lies on the goal outline (outline_fit.py): the image shift the fit finds, turned into a move in the table's plane
+through the body's projection. Not moved where, so placed, the hull does not lie along the outline nearly all round
+(MIN_ALONG: a hull that only partly fits is no evidence where it lies), the shift is within the hull's own error
+(MIN_MOVE_PX) or the move is too large to be depth error (MAX_MOVE_REL).
 """
 
 from __future__ import annotations

@@ -6,6 +6,7 @@ import math
 import sys
 from pathlib import Path
 
+import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -45,3 +46,13 @@ def grounded_raycast(seed: int, index: int):
     motion = ground(inp, OfflineFeatures(), GroundingConfig(), T_base_camera=p.T_base_camera)
     assert motion.ok, motion.reason
     return p, motion
+
+
+def hull_mask(K, points: np.ndarray, grow_px: int = 0) -> np.ndarray:
+    """(H, W) the filled convex hull of the camera-frame points' images (to a sixteenth of a pixel), grown by grow_px
+    all round (shrunk where negative), as a segmenter's mask of a convex body."""
+    hull = cv2.convexHull(K.project(points).astype(np.float32))
+    mask = np.zeros((K.height, K.width), np.uint8)
+    cv2.fillConvexPoly(mask, np.round(hull * 16).astype(np.int32), 1, shift=4)
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * abs(grow_px) + 1,) * 2)
+    return (cv2.dilate(mask, disc) if grow_px >= 0 else cv2.erode(mask, disc)).astype(bool)

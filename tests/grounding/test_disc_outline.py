@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
-from grounding_helpers import grounded_raycast
+from grounding_helpers import grounded_raycast, hull_mask
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
@@ -29,13 +28,6 @@ def _plate(rng: np.random.Generator) -> np.ndarray:
     return START + np.outer(r * np.cos(a), e1) + np.outer(r * np.sin(a), e2) + np.outer(h, UP)
 
 
-def _mask(points: np.ndarray, grow_px: int = 0) -> np.ndarray:
-    mask = np.zeros((K.height, K.width), np.uint8)
-    hull = cv2.convexHull(K.project(points).astype(np.float32))
-    cv2.fillConvexPoly(mask, np.round(hull * 16).astype(np.int32), 1, shift=4)
-    return cv2.dilate(mask, np.ones((2 * grow_px + 1,) * 2, np.uint8)).astype(bool) if grow_px else mask.astype(bool)
-
-
 @pytest.mark.parametrize(("tip_deg", "grow_px"), [(60.0, 0), (90.0, 2), (35.0, 2)])
 def test_one_of_the_ellipses_tilts_is_the_plates(tip_deg, grow_px):
     """A plate tipped up onto its rim (about the table's horizontal, then spun about the vertical): of the four tilts
@@ -48,7 +40,7 @@ def test_one_of_the_ellipses_tilts_is_the_plates(tip_deg, grow_px):
     R = spin @ tip
     goal_middle = START + np.array([0.05, 0.0, 0.0]) + RADIUS * UP
     truth = Similarity(1.0, R, goal_middle - R @ START)
-    tilts = _disc_tilts(_mask(truth.apply(plate), grow_px), K, START, UP, 2 * RADIUS)
+    tilts = _disc_tilts(hull_mask(K, truth.apply(plate), grow_px), K, START, UP, 2 * RADIUS)
     assert len(tilts) == 4
     axis_off = [np.degrees(np.arccos(np.clip((m.R @ UP) @ (R @ UP), -1, 1))) for m in tilts]
     best = int(np.argmin(axis_off))

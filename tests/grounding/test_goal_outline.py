@@ -8,7 +8,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
-from grounding_helpers import grounded_raycast
+from grounding_helpers import grounded_raycast, hull_mask
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
@@ -48,11 +48,7 @@ def _then(second: Similarity, first: Similarity) -> Similarity:
 def _goal_mask(box: SeenBox, motion: Similarity, grow_px: int, ragged: bool = True, seed: int = 0) -> np.ndarray:
     """The goal box's silhouette as a segmenter gives it: grown by grow_px (shrunk where negative), and where
     `ragged` its edge ragged and a hole in it."""
-    hull = cv2.convexHull(K.project(motion.apply(box.corners)).astype(np.float32))
-    mask = np.zeros((K.height, K.width), np.uint8)
-    cv2.fillConvexPoly(mask, np.round(hull * 16).astype(np.int32), 1, shift=4)  # to a sixteenth of a pixel
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * abs(grow_px) + 1,) * 2)
-    mask = cv2.dilate(mask, disc) if grow_px >= 0 else cv2.erode(mask, disc)
+    mask = hull_mask(K, motion.apply(box.corners), grow_px).astype(np.uint8)
     if not ragged:
         return mask.astype(bool)
     rng = np.random.default_rng(seed)
@@ -206,10 +202,7 @@ def test_a_round_body_off_along_the_table_is_placed_where_its_outline_shows_it()
     wall = START + np.outer(np.cos(a), 0.035 * e1) + np.outer(np.sin(a), 0.035 * e2) + np.outer(h, UP)
     seen = wall[np.einsum("ij,ij->i", wall - START - np.outer(wall @ UP - START @ UP, UP), -wall) > 0]
     truth = _then(Similarity(1.0, np.eye(3), np.array([0.05, 0.0, 0.0]) - 0.05 * UP[0] * UP), TRUTH)
-    mask = np.zeros((K.height, K.width), np.uint8)
-    hull = cv2.convexHull(K.project(truth.apply(wall)).astype(np.float32))
-    cv2.fillConvexPoly(mask, np.round(hull * 16).astype(np.int32), 1, shift=4)
-    outline = goal_outline(cv2.dilate(mask, np.ones((5, 5), np.uint8)).astype(bool), UNKNOWN, K)
+    outline = goal_outline(hull_mask(K, truth.apply(wall), 2), UNKNOWN, K)
     off = np.array([0.0, 0.012, -0.009])
     given = _then(Similarity(1.0, np.eye(3), off - (off @ UP) * UP), truth)
     body = revolved(seen, START, UP)
