@@ -32,12 +32,20 @@ from pipeline.grounding.matching import Matches, match_pixels, pairwise_consiste
 from pipeline.grounding.outline_fit import goal_outline
 from pipeline.grounding.outline_place import placed_on_outline
 from pipeline.grounding.prepare import Prepared, prepare, refuse
-from pipeline.grounding.ray_rest import MIN_GAP_M, ball_surface, rest_along_ray, set_down
+from pipeline.grounding.ray_rest import (
+    MIN_GAP_M,
+    UPRIGHT_DEG,
+    ball_surface,
+    down_to_support,
+    out_of_support,
+    rest_along_ray,
+    set_down,
+)
 from pipeline.grounding.seen_symmetry import as_seen, off_support, seen_box, shape_symmetry
 from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.select import fine_tolerance, select_motion
 from pipeline.grounding.silhouette import axis_into_plane, onto_ray, silhouette_ray
-from pipeline.grounding.tilt import kept_level
+from pipeline.grounding.tilt import kept_level, tilt_deg
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion, SeenSymmetry
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
 from pipeline.grounding.verify import view_consistency
@@ -346,7 +354,8 @@ def _on_goal_outline(
     down on the table in `scene`, the capture's other points) and moved, a handled body spun about its axis
     (handle_outline.py) and moved, a body of revolution moved (outline_place.py). The outline does not depend on the
     model's depth, which leans a small box off its face, lays a mug's handle along a grown mask and puts a large pan
-    or a bowl centimetres off."""
+    or a bowl centimetres off. A tipped one is then raised out of the table where the model's depth sank it
+    (ray_rest.out_of_support)."""
     box = seen_box(*seen0) if shape.kind == "box" else None
     round_body = shape.axis is not None and handled is None  # a ball has no axis: ray_rest placed it
     if box is None and handled is None and not round_body:
@@ -366,7 +375,10 @@ def _on_goal_outline(
         motion = spun_to_outline(motion, handled, whole, outline)
     else:
         whole, centre = revolved(seen0[0], shape.centre, shape.axis / np.linalg.norm(shape.axis)), shape.centre
-    return placed_on_outline(motion, whole, centre, up, outline, size)
+    placed = placed_on_outline(motion, whole, centre, up, outline, size)
+    if tilt_deg(placed.R, up) <= UPRIGHT_DEG:  # upright: ray_rest kept its height above the support
+        return placed
+    return out_of_support(placed, down_to_support(whole, scene, up), centre, scene, up)
 
 
 def _up_direction(

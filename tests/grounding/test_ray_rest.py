@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.ray_rest import rest_along_ray
+from pipeline.grounding.ray_rest import SINK_TOLERANCE_M, down_to_support, out_of_support, rest_along_ray
 from pipeline.grounding.umeyama import Similarity
 
 UP = np.array([0.0, -1.0, -1.0]) / np.sqrt(2.0)  # the camera looks down at the table at 45 deg
@@ -132,3 +132,42 @@ def test_a_body_of_revolution_lying_and_spun_about_its_axis_is_rested_by_its_lev
     assert np.allclose(rested.R, spun)  # the motion's own turn kept: only its place along the ray changes
     misread = Rotation.from_rotvec(np.radians(30.0) * ALONG).apply(ACROSS)  # read 30 deg off: its twin tilts 3 deg
     assert rest_along_ray(off, can, table, UP, spin=(c0, misread))[1] == 0.0
+
+
+def _heights_above_table(points: np.ndarray) -> np.ndarray:
+    return (points - TABLE) @ UP
+
+
+def test_what_rested_on_the_table_is_taken_down_to_it_and_what_was_held_is_not():
+    """Its seen points stop above the table (cut at the support): the bottom is copied down onto it."""
+    c0 = _start()
+    seen = _cube(c0)
+    seen = seen[_heights_above_table(seen) > 0.007]
+    whole = down_to_support(seen, _table(c0), UP)
+    assert abs(_heights_above_table(whole).min()) < 0.001
+    assert np.array_equal(whole[: len(seen)], seen)
+    held = _start(lift=0.03)
+    seen_held = _cube(held)[_heights_above_table(_cube(held)) > 0.037]
+    assert down_to_support(seen_held, _table(held), UP) is seen_held
+
+
+def test_a_tipped_body_sunk_into_the_table_is_raised_out_along_its_ray_and_a_floating_one_is_left():
+    """The model's depth put a cube tipped onto its side 3 cm too far along the ray: its body sinks into the table
+    and is raised along the same ray (where the goal image shows it) until it sinks no more than the tolerance."""
+    c0 = _start()
+    seen = _cube(c0)
+    body = down_to_support(seen[_heights_above_table(seen) > 0.007], _table(c0), UP)
+    tip = Rotation.from_rotvec(np.radians(90.0) * ACROSS).as_matrix()
+    goal = c0 + 0.1 * ALONG
+    ray = goal / np.linalg.norm(goal)
+    truth = Similarity(1.0, tip, goal - tip @ c0)
+    far = Similarity(1.0, tip, truth.t + 0.03 * ray)
+    raised = out_of_support(far, body, c0, _table(c0), UP)
+    sunk = -_heights_above_table(raised.apply(body)).min()
+    assert abs(sunk - SINK_TOLERANCE_M) < 0.0005, sunk
+    moved = raised.apply(c0[None])[0] - far.apply(c0[None])[0]
+    assert np.linalg.norm(np.cross(moved, ray)) < 1e-6  # along the ray only
+    assert np.linalg.norm(raised.apply(c0[None])[0] - goal) < 0.006
+    near = Similarity(1.0, tip, truth.t - 0.03 * ray)  # floating: a part it hides may hang lower
+    assert out_of_support(near, body, c0, _table(c0), UP) is near
+    assert out_of_support(truth, body, c0, _table(c0), UP) is truth
