@@ -42,5 +42,6 @@ def test_a_tilt_is_kept_only_where_the_views_show_it():
     def views_agree(shown_by: float):  # geometric agreement that falls off with the distance from the true tilt
         return lambda m: 0.8 - shown_by * abs(tilt_of(m) - 20.0) / 20.0
 
-    assert rotation_deg(kept_level(motion, UP, CENTRE, views_agree(0.01)).R.T @ level.R) < 1e-6  # the views cannot tell
-    assert kept_level(motion, UP, CENTRE, views_agree(0.1)) is motion  # they show the tilt
+    # a model's warped goal depth favours a false tilt by up to 0.05: the views cannot tell
+    assert rotation_deg(kept_level(motion, UP, CENTRE, views_agree(0.05)).R.T @ level.R) < 1e-6
+    assert kept_level(motion, UP, CENTRE, views_agree(0.09)) is motion  # they show the tilt
