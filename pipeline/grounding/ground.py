@@ -375,10 +375,11 @@ def _on_goal_outline(
         motion = spun_to_outline(motion, handled, whole, outline)
     else:
         whole, centre = revolved(seen0[0], shape.centre, shape.axis / np.linalg.norm(shape.axis)), shape.centre
+    whole = down_to_support(whole, scene, up)  # its seen points stop above the table: its outline does not
     placed = placed_on_outline(motion, whole, centre, up, outline, size)
     if tilt_deg(placed.R, up) <= UPRIGHT_DEG:  # upright: ray_rest kept its height above the support
         return placed
-    return out_of_support(placed, down_to_support(whole, scene, up), centre, scene, up)
+    return out_of_support(placed, whole, centre, scene, up)
 
 
 def _up_direction(

@@ -211,6 +211,38 @@ def test_a_round_body_off_along_the_table_is_placed_where_its_outline_shows_it()
     assert placed_on_outline(truth, body, START, UP, outline, 0.12) is truth  # within the hull's own error: kept
 
 
+def test_a_body_seen_only_above_the_table_is_taken_down_to_it_before_its_outline_places_it():
+    """The can's seen points stop 7 mm above the table (cut at the support): the hull they cast stops short of the
+    outline's bottom edge and pulls the placement off; copied down onto the table (ray_rest.down_to_support), the
+    body's hull is the outline's again."""
+    from pipeline.contact.symmetry import revolved
+    from pipeline.grounding.ray_rest import down_to_support
+
+    rng = np.random.default_rng(13)
+    a, h = rng.uniform(0, 2 * np.pi, 20000), rng.uniform(0.0, 0.1, 20000)
+    e1 = np.cross(UP, [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(UP, e1)
+    wall = START + np.outer(np.cos(a), 0.035 * e1) + np.outer(np.sin(a), 0.035 * e2) + np.outer(h, UP)
+    seen = wall[np.einsum("ij,ij->i", wall - START - np.outer(wall @ UP - START @ UP, UP), -wall) > 0]
+    seen = seen[(seen - START) @ UP > 0.007]
+    g = np.linspace(-0.2, 0.2, 81)
+    x, y = (m.ravel() for m in np.meshgrid(g, g))
+    table = START + np.outer(x, e1) + np.outer(y, e2)
+    table = table[np.hypot(x, y) > 0.04]  # hidden under the can
+    truth = _then(Similarity(1.0, np.eye(3), np.array([0.05, 0.0, 0.0]) - 0.05 * UP[0] * UP), TRUTH)
+    outline = goal_outline(hull_mask(K, truth.apply(wall), 2), UNKNOWN, K)
+    off = np.array([0.0, 0.012, -0.009])
+    given = _then(Similarity(1.0, np.eye(3), off - (off @ UP) * UP), truth)
+
+    def error_m(body: np.ndarray) -> float:
+        placed = placed_on_outline(given, body, START, UP, outline, 0.12)
+        return float(np.linalg.norm(placed.apply(START[None]) - truth.apply(START[None])))
+
+    cut = revolved(seen, START, UP)
+    assert error_m(down_to_support(cut, table, UP)) < 0.002 < error_m(cut) - 0.001
+
+
 @pytest.mark.parametrize(("lean_deg", "off_deg"), [(15.0, 10.0), (-22.0, 0.0), (8.0, -20.0)])
 def test_a_box_leaned_off_its_face_is_set_down_on_it_and_turned_back(lean_deg, off_deg):
     """A motion that leans the standing box off the table by 8-22 deg (a model's bled goal depth) and turns it about
