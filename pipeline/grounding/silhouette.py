@@ -9,7 +9,9 @@ segmenter's errors (an outline a few pixels out, holes) leave what is read here 
   distances), so its centre lies on the ray through the centre of the filled outline (silhouette_ray);
 - a body of revolution: the plane through the camera and its axis is a plane of symmetry of the body and the camera
   together, so the outline is symmetric about it: seen round the line through the camera parallel to the axis, each
-  band of the outline at one height spans azimuths symmetric about that plane's (mirror_plane).
+  band of the outline at one height spans azimuths symmetric about that plane's (mirror_plane); the same symmetry,
+  sought over turns of a tipped body's axis about the goal ray, gives that axis's direction across the ray
+  (axis_turned_to_outline).
 
 On raycast pairs the ray through a ball's outline passed 0.1-1.5 mm from its true centre and the true axis of a
 standing body lay within 0.3 mm of the plane read (a few partly hidden ones 1-6 mm, which the bands' disagreement
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import basis_across
@@ -34,6 +37,9 @@ MIN_BAND_PX = 10  # a band is read where it holds this many pixels ...
 MIN_BANDS = 6  # ... and the plane where this many bands are read
 MIRROR_SPREAD_REL = 0.1  # the bands' middles agree this well: their spread (std) over the outline's half-width
 # (raycast goals of standing bodies of revolution: 0.003-0.05; partly hidden or bled onto a neighbour: 0.18 and up)
+TURN_RANGE_DEG = 16.0  # a tipped body's axis turned about the goal ray this far either way ...
+TURN_STEP_DEG = (2.0, 0.5)  # ... coarse, then fine about the best
+TURN_GAIN = 0.7  # the turn is taken where it brings the bands' spread under this share of the motion's own
 
 
 def silhouette_ray(mask: np.ndarray, K: CameraIntrinsics) -> np.ndarray | None:
@@ -53,13 +59,56 @@ def mirror_plane(mask: np.ndarray, K: CameraIntrinsics, axis: np.ndarray) -> np.
     """(3,) unit normal of the plane through the camera, parallel to `axis` (a body of revolution's, camera frame),
     that the mask's largest outline is symmetric about; None where it touches the image's edge or its bands do not
     agree on one plane."""
+    rays = _outline_rays(mask, K)
+    mirror = None if rays is None else _mirror(rays, axis)
+    return None if mirror is None or mirror[1] > MIRROR_SPREAD_REL else mirror[0]
+
+
+def axis_turned_to_outline(
+    motion: Similarity, centre: np.ndarray, axis: np.ndarray, mask: np.ndarray, K: CameraIntrinsics
+) -> Similarity:
+    """`motion` turned about the ray through where it puts `centre` (the body's middle, as at the start) until the
+    goal outline (`mask`) is most nearly symmetric about the plane through the camera and the body's `axis` (as at
+    the start, camera frame): the outline shows a tipped body's axis across the ray to a fraction of a degree, where a
+    model's goal depth left it 2-15 deg off (raycast bottles, cylinders, bowls and plates tipped). As it is where the
+    outline does not tell, is symmetric about no plane within reach (MIRROR_SPREAD_REL; a can whose outline bled
+    onto its neighbour grew ever more symmetric toward the range's end) or the turn does not make it clearly more
+    symmetric (TURN_GAIN)."""
+    rays = _outline_rays(mask, K)
+    if rays is None:
+        return motion
+    goal = motion.apply(centre[None])[0]
+    ray = goal / np.linalg.norm(goal)
+    direction = motion.R @ (axis / np.linalg.norm(axis))
+
+    def spread(deg: float) -> float:
+        mirror = _mirror(rays, Rotation.from_rotvec(np.radians(deg) * ray).apply(direction))
+        return np.inf if mirror is None else mirror[1]
+
+    now = spread(0.0)
+    coarse = min(np.arange(-TURN_RANGE_DEG, TURN_RANGE_DEG + 1e-9, TURN_STEP_DEG[0]), key=spread)
+    fine = np.arange(coarse - TURN_STEP_DEG[0], coarse + TURN_STEP_DEG[0] + 1e-9, TURN_STEP_DEG[1])
+    best = float(min(fine, key=spread))
+    if not np.isfinite(now) or spread(best) > min(TURN_GAIN * now, MIRROR_SPREAD_REL) or abs(best) >= TURN_RANGE_DEG:
+        return motion  # no clearer symmetry, none at all, or none within reach (still falling at the range's end)
+    turn = Rotation.from_rotvec(np.radians(best) * ray).as_matrix()
+    return Similarity(motion.scale, turn @ motion.R, turn @ (motion.t - goal) + goal)
+
+
+def _outline_rays(mask: np.ndarray, K: CameraIntrinsics) -> np.ndarray | None:
+    """(N, 3) unit rays through the pixels of the mask's largest outline, filled; None where it touches the edge."""
     outline = largest_outline(mask)
     if outline is None:
         return None
     filled = np.zeros(mask.shape, np.uint8)
     cv2.drawContours(filled, [outline], -1, 1, thickness=cv2.FILLED)
     v, u = np.nonzero(filled)
-    rays = _unit_rays(np.column_stack([u, v]), K)
+    return _unit_rays(np.column_stack([u, v]), K)
+
+
+def _mirror(rays: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """(the unit normal of the plane through the camera, parallel to `axis`, that the outline's `rays` are most
+    nearly symmetric about, the spread of its bands' middles over their half-width), None where too few bands."""
     axis = axis / np.linalg.norm(axis)
     e1, e2 = basis_across(axis)
     azimuth = np.arctan2(rays @ e2, rays @ e1)
@@ -72,10 +121,9 @@ def mirror_plane(mask: np.ndarray, K: CameraIntrinsics, axis: np.ndarray) -> np.
     if len(spans) < MIN_BANDS:
         return None
     mids, halves = spans.mean(axis=1), np.ptp(spans, axis=1) / 2
-    if np.std(mids) > MIRROR_SPREAD_REL * np.median(halves):
-        return None
     phi = middle + float(np.median(mids))
-    return np.sin(phi) * e1 - np.cos(phi) * e2  # across the plane spanned by the axis and cos(phi) e1 + sin(phi) e2
+    # across the plane spanned by the axis and cos(phi) e1 + sin(phi) e2
+    return np.sin(phi) * e1 - np.cos(phi) * e2, float(np.std(mids) / np.median(halves))
 
 
 def onto_ray(motion: Similarity, point: np.ndarray, ray: np.ndarray) -> Similarity:
