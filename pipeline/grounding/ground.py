@@ -135,6 +135,7 @@ def _ground(
         sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine)
     # what is set on its support, the least correction taken and the point whose ray it moves along (ray_rest)
     body0, min_gap, through = pp.cloud0, MIN_GAP_M, None
+    middle = body0.mean(axis=0)  # the seen points' middle, as at the start
     # `placed`: the motion moved across the ray to where the goal image shows the object (silhouette.py); the checks
     # below judge `sim`, the registration, on the goal cloud it was fitted to: the model's depth the move corrects
     # would refuse it (a ball put back on its outline's ray kept 2 of its 430 points within 4.5 mm of the goal cloud)
@@ -153,7 +154,7 @@ def _ground(
         sim = placed = kept_level(sim, up, shape.centre, geometry)
         if shape.axis is not None and not inp.depth1_measured:  # a model's depth can put it to one side
             if tilt_deg(sim.R, up) > UPRIGHT_DEG:  # a tipped body's axis turned across the ray to its outline's
-                turned = axis_turned_to_outline(sim, _on_axis(pp.cloud0.mean(axis=0), shape), shape.axis, inp.mask1, K)
+                turned = axis_turned_to_outline(sim, _on_axis(middle, shape), shape.axis, inp.mask1, K)
                 # unless the views show it worse: the start's axis read some degrees off, the outline turns a right
                 # motion that far (a can lying across the view: 0.8 -> 8.9 deg, its agreement 0.82 -> 0.36)
                 if turned is not sim and geometry(turned) >= geometry(sim) - NO_BETTER:
@@ -163,7 +164,6 @@ def _ground(
                 placed, through = in_plane, shape.centre
     else:
         placed = sim
-    middle = pp.cloud0.mean(axis=0)
     across = float(np.linalg.norm(placed.apply(middle[None]) - sim.apply(middle[None])))  # where it moved the body
     dist, _ = cKDTree(view1.cloud).query(sim.apply(view0.cloud))
     inliers = dist < threshold
@@ -218,8 +218,7 @@ def _ground(
         scene = _scene_around(pp.points0, inp.mask0)
         placed, rested = rest_along_ray(placed, body0, scene, up, min_gap, through, spin)
         placed = _on_goal_outline(placed, shape, seen0, handled, up, inp, pp, size, scene)
-    centre = pp.cloud0.mean(axis=0)
-    t_rigid = placed.apply(centre[None])[0] - placed.R @ centre  # the centre lands where the similarity puts it
+    t_rigid = placed.apply(middle[None])[0] - placed.R @ middle  # the middle lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))
     return ObjectMotion(
         ok=True,

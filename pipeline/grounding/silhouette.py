@@ -86,11 +86,13 @@ def axis_turned_to_outline(
         return np.inf if mirror is None else mirror[1]
 
     now = spread(0.0)
+    if not np.isfinite(now):
+        return motion
     coarse = min(np.arange(-TURN_RANGE_DEG, TURN_RANGE_DEG + 1e-9, TURN_STEP_DEG[0]), key=spread)
     fine = np.arange(coarse - TURN_STEP_DEG[0], coarse + TURN_STEP_DEG[0] + 1e-9, TURN_STEP_DEG[1])
-    best = float(min(fine, key=spread))
-    if not np.isfinite(now) or spread(best) > min(TURN_GAIN * now, MIRROR_SPREAD_REL) or abs(best) >= TURN_RANGE_DEG:
-        return motion  # no clearer symmetry, none at all, or none within reach (still falling at the range's end)
+    least, best = min((spread(deg), float(deg)) for deg in fine)
+    if least > min(TURN_GAIN * now, MIRROR_SPREAD_REL) or abs(best) >= TURN_RANGE_DEG:
+        return motion  # no clearer symmetry, or none within reach (still falling at the range's end)
     turn = Rotation.from_rotvec(np.radians(best) * ray).as_matrix()
     return Similarity(motion.scale, turn @ motion.R, turn @ (motion.t - goal) + goal)
 

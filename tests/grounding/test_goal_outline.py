@@ -189,12 +189,10 @@ def test_a_raycast_pan_put_off_along_the_table_by_its_goal_depth_comes_back():
     assert translation_error_mm(motion.R, motion.t, p.T_motion_camera, p.centre_camera) < 5.0
 
 
-def test_a_round_body_off_along_the_table_is_placed_where_its_outline_shows_it():
-    """A can standing (its camera-facing half seen), which the model's depth put 1.5 cm off along the table: its seen
-    slices spun round its axis (contact.symmetry.revolved) cast the hull that the goal outline places within 2 mm."""
-    from pipeline.contact.symmetry import revolved
-
-    rng = np.random.default_rng(12)
+def _can_off_along_the_table(seed: int):
+    """(the seen points of a can standing at START, its camera-facing half; the two directions across UP; the true
+    motion; the goal outline it casts, 2 px grown; the motion the model's depth gives, 1.5 cm off along the table)."""
+    rng = np.random.default_rng(seed)
     a, h = rng.uniform(0, 2 * np.pi, 20000), rng.uniform(0.0, 0.1, 20000)
     e1 = np.cross(UP, [1.0, 0.0, 0.0])
     e1 /= np.linalg.norm(e1)
@@ -205,6 +203,15 @@ def test_a_round_body_off_along_the_table_is_placed_where_its_outline_shows_it()
     outline = goal_outline(hull_mask(K, truth.apply(wall), 2), UNKNOWN, K)
     off = np.array([0.0, 0.012, -0.009])
     given = _then(Similarity(1.0, np.eye(3), off - (off @ UP) * UP), truth)
+    return seen, (e1, e2), truth, outline, given
+
+
+def test_a_round_body_off_along_the_table_is_placed_where_its_outline_shows_it():
+    """A can standing (its camera-facing half seen), which the model's depth put 1.5 cm off along the table: its seen
+    slices spun round its axis (contact.symmetry.revolved) cast the hull that the goal outline places within 2 mm."""
+    from pipeline.contact.symmetry import revolved
+
+    seen, _, truth, outline, given = _can_off_along_the_table(12)
     body = revolved(seen, START, UP)
     placed = placed_on_outline(given, body, START, UP, outline, 0.12)
     assert np.linalg.norm(placed.apply(START[None]) - truth.apply(START[None])) < 0.002
@@ -218,22 +225,12 @@ def test_a_body_seen_only_above_the_table_is_taken_down_to_it_before_its_outline
     from pipeline.contact.symmetry import revolved
     from pipeline.grounding.ray_rest import down_to_support
 
-    rng = np.random.default_rng(13)
-    a, h = rng.uniform(0, 2 * np.pi, 20000), rng.uniform(0.0, 0.1, 20000)
-    e1 = np.cross(UP, [1.0, 0.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(UP, e1)
-    wall = START + np.outer(np.cos(a), 0.035 * e1) + np.outer(np.sin(a), 0.035 * e2) + np.outer(h, UP)
-    seen = wall[np.einsum("ij,ij->i", wall - START - np.outer(wall @ UP - START @ UP, UP), -wall) > 0]
+    seen, across, truth, outline, given = _can_off_along_the_table(13)
     seen = seen[(seen - START) @ UP > 0.007]
     g = np.linspace(-0.2, 0.2, 81)
     x, y = (m.ravel() for m in np.meshgrid(g, g))
-    table = START + np.outer(x, e1) + np.outer(y, e2)
+    table = START + np.outer(x, across[0]) + np.outer(y, across[1])
     table = table[np.hypot(x, y) > 0.04]  # hidden under the can
-    truth = _then(Similarity(1.0, np.eye(3), np.array([0.05, 0.0, 0.0]) - 0.05 * UP[0] * UP), TRUTH)
-    outline = goal_outline(hull_mask(K, truth.apply(wall), 2), UNKNOWN, K)
-    off = np.array([0.0, 0.012, -0.009])
-    given = _then(Similarity(1.0, np.eye(3), off - (off @ UP) * UP), truth)
 
     def error_m(body: np.ndarray) -> float:
         placed = placed_on_outline(given, body, START, UP, outline, 0.12)
