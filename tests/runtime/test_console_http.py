@@ -178,6 +178,9 @@ def test_http_oddities_are_4xx(console):
     assert send(port, f"GET / HTTP/0.9\r\n{host}\r\n".encode()).status == 400
     assert send(port, b"GET /" + b"a" * 70000 + b" HTTP/1.1\r\n\r\n").status == 414
     assert send(port, f"GET /nope HTTP/1.1\r\n{host}\r\n".encode()).status == 404
+    assert send(port, b"\n\x00\n", shut_write=True).status == 400  # a blank line, then no request line: answered
+    assert send(port, f"\r\n\r\nGET /nope HTTP/1.1\r\n{host}\r\n".encode()).status == 404  # blank lines skipped
+    assert send(port, b"\r\n" * 40000 + b"GET / HTTP/1.1\r\n\r\n").status == 400  # but not without end
 
 
 def open_stream(port: int, rcvbuf: int | None = None) -> socket.socket:

@@ -37,6 +37,7 @@ log = logging.getLogger(__name__)
 
 KEEPALIVE_S = 1.0
 MAX_BODY_BYTES = 16 * 1024  # the page posts a few hundred bytes at most
+MAX_REQUEST_LINE_BYTES = 65536  # as http.server reads the first request line
 BODY_TIMEOUT_S = 2.0  # a body shorter than its Content-Length is refused after this, not waited for
 IDLE_TIMEOUT_S = 10.0  # a connection that sends nothing for this long is closed
 STREAM_WRITE_TIMEOUT_S = 5.0  # a page that takes no events for this long is dropped
@@ -102,12 +103,27 @@ class Handler(BaseHTTPRequestHandler):
             pass
 
     def parse_request(self) -> bool:
+        # blank lines before the request line are skipped (RFC 9112 2.2): http.server would close without a word
+        skipped = 0
+        while self.raw_requestline and not self.raw_requestline.strip():
+            skipped += len(self.raw_requestline)
+            if skipped > MAX_REQUEST_LINE_BYTES:
+                return self._refuse_line(HTTPStatus.BAD_REQUEST, "only blank lines where the request line should be")
+            self.raw_requestline = self.rfile.readline(MAX_REQUEST_LINE_BYTES + 1)
+        if len(self.raw_requestline) > MAX_REQUEST_LINE_BYTES:
+            return self._refuse_line(HTTPStatus.REQUEST_URI_TOO_LONG)
         if not super().parse_request():
             return False
         if self.request_version not in ("HTTP/1.0", "HTTP/1.1"):  # HTTP/0.9 answers carry no status: refuse it
             self.send_error(HTTPStatus.BAD_REQUEST, f"{self.request_version} is not spoken here (HTTP/1.1)")
             return False
         return True
+
+    def _refuse_line(self, code: HTTPStatus, message: str | None = None) -> bool:
+        """A refusal before any request line was parsed (as http.server's own for a line too long); False."""
+        self.requestline, self.command = "", ""
+        self.send_error(code, message)
+        return False
 
     def _admit(self) -> bool:
         refusal = self.server.guard.check(self.headers, self.connection.getsockname()[0])
