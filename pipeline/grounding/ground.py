@@ -43,9 +43,9 @@ from pipeline.grounding.ray_rest import (
 )
 from pipeline.grounding.seen_symmetry import as_seen, off_support, seen_box, shape_symmetry
 from pipeline.grounding.seen_turns import read_turns
-from pipeline.grounding.select import fine_tolerance, select_motion
+from pipeline.grounding.select import Selected, fine_tolerance, select_motion
 from pipeline.grounding.silhouette import axis_into_plane, axis_turned_to_outline, onto_ray, silhouette_ray
-from pipeline.grounding.tilt import NO_BETTER, kept_level, tilt_deg
+from pipeline.grounding.tilt import LYING_DEG, NO_BETTER, kept_level, ranks_above, tilt_deg
 from pipeline.grounding.types import GroundingConfig, GroundingInput, ObjectMotion, SeenSymmetry
 from pipeline.grounding.umeyama import Similarity, ransac_similarity
 from pipeline.grounding.verify import view_consistency
@@ -116,7 +116,13 @@ def _ground(
     twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)
     if twins:  # the winner turned end for end, refined and scored alike: taken where it explains the views better
         twin = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
-        if twin.ranked > chosen.ranked:
+        if _ranks_above(twin, chosen, up):
+            chosen = twin
+    if not chosen.hinted and tilt_deg(chosen.motion.R, up) > 90.0 + LYING_DEG:  # turned over: its twins kept up too
+        over = SeenSymmetry("revolution", pp.cloud0.mean(axis=0), axis=up)  # end for end about the vertical
+        flips = end_for_end(chosen.motion, over, view0.cloud, view1.cloud)
+        twin = select_motion(flips, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
+        if _ranks_above(twin, chosen, up):
             chosen = twin
     if chosen.score < cfg.min_view_score and not chosen.hinted and not inp.depth1_measured and shape.axis is not None:
         # nothing explains the views: a flat body tipped onto its rim, read off its goal outline (disc_outline.py)
@@ -403,6 +409,12 @@ def _up_direction(
     (a, b, c, _), _ = pcd.segment_plane(0.01, 3, 200)
     n = np.array([a, b, c]) / np.linalg.norm([a, b, c])
     return -n if n @ pts.mean(axis=0) > 0 else n
+
+
+def _ranks_above(a: Selected, b: Selected, up: np.ndarray) -> bool:
+    """Whether motion `a` is taken over `b`: what they rank on (select.Selected.ranked), one that turns the object
+    over held to a margin against one that keeps its top up (tilt.ranks_above)."""
+    return ranks_above(a.ranked, a.motion.R, b.ranked, b.motion.R, up)
 
 
 def _scene_around(points: np.ndarray, mask: np.ndarray) -> np.ndarray:

@@ -6,7 +6,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from pipeline.grounding.compare import rotation_deg
-from pipeline.grounding.tilt import kept_level, level_twin
+from pipeline.grounding.tilt import TURNED_OVER_MARGIN, kept_level, level_twin, ranks_above
 from pipeline.grounding.umeyama import Similarity
 
 UP = np.array([0.0, -0.6, -0.8])
@@ -45,3 +45,16 @@ def test_a_tilt_is_kept_only_where_the_views_show_it():
     # a model's warped goal depth favours a false tilt by up to 0.05: the views cannot tell
     assert rotation_deg(kept_level(motion, UP, CENTRE, views_agree(0.05)).R.T @ level.R) < 1e-6
     assert kept_level(motion, UP, CENTRE, views_agree(0.09)) is motion  # they show the tilt
+
+
+def test_a_motion_turning_the_object_over_must_rank_clearly_above_one_keeping_it_up():
+    """Upside down (170 deg) against upright (10 deg): the upright one wins unless the other ranks TURNED_OVER_MARGIN
+    above it. Laid on its side either way (80 against 100 deg: which end leads says nothing of up), rank alone decides;
+    so it does between two upright motions."""
+    over, kept = _motion(0.0, 170.0).R, _motion(30.0, 10.0).R
+    assert not ranks_above(0.6 + 0.9 * TURNED_OVER_MARGIN, over, 0.6, kept, UP)
+    assert ranks_above(0.6, kept, 0.6 + 0.9 * TURNED_OVER_MARGIN, over, UP)
+    assert ranks_above(0.6 + 1.1 * TURNED_OVER_MARGIN, over, 0.6, kept, UP)
+    assert ranks_above(0.61, _motion(0.0, 100.0).R, 0.6, _motion(0.0, 80.0).R, UP)
+    assert not ranks_above(0.59, _motion(0.0, 100.0).R, 0.6, _motion(0.0, 80.0).R, UP)
+    assert ranks_above(0.61, kept, 0.6, _motion(0.0, 0.0).R, UP)
