@@ -229,8 +229,9 @@ def test_the_goal_outline_spins_the_handle_back(off_deg, grow_px):
 
 def test_an_outline_that_shows_no_handle_keeps_a_spin_that_hides_it():
     """The goal shows the mug with its handle straight behind it: the spins that hide it fit the outline alike, so a
-    motion hiding it 15 deg off is kept; one that leaves the handle beside the body is spun to hide it, no further than
-    it must. A mask that is not the body's (a bar) changes nothing."""
+    motion hiding it 15 deg off is kept; one that leaves the handle beside the body is spun to the middle of those
+    spins, straight behind (the nearest of them, at the edge of the sector that hides it, had left raycast mugs 56
+    deg off). A mask that is not the body's (a bar) changes nothing."""
     from pipeline.grounding.handle_outline import spun_to_outline
     from pipeline.grounding.outline_fit import goal_outline
 
@@ -255,11 +256,11 @@ def test_an_outline_that_shows_no_handle_keeps_a_spin_that_hides_it():
 
     near = standing(hidden_yaw + 15.0)
     assert spun_to_outline(near, handled, whole, outline) is near
-    for side in (1.0, -1.0):  # hidden, on the side it came from: the tied spin nearest the motion's
+    for side in (1.0, -1.0):  # from either side: the middle of the spins that hide it
         beside = standing(hidden_yaw + side * 90.0)
         assert side * handle_from_away_deg(beside) > 45.0
         found = handle_from_away_deg(spun_to_outline(beside, handled, whole, outline))
-        assert 0.0 < side * found < 45.0, found
+        assert abs(found) < 10.0, found
     bar = np.zeros((K.height, K.width), dtype=bool)
     bar[100:104, 60:260] = True
     beside = standing(hidden_yaw + 90.0)
