@@ -19,7 +19,7 @@ from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.box_outline import face_lean_deg, turned_to_outline
 from pipeline.grounding.disc_outline import tipped_disc
 from pipeline.grounding.handle import HandledBody, ends_by_print, handle_hypotheses, handled_body, turn_by_handle
-from pipeline.grounding.handle_outline import spun_to_outline
+from pipeline.grounding.handle_outline import hidden_handle_spun, spun_to_outline
 from pipeline.grounding.hypotheses import (
     axis_hypotheses,
     ball_hypotheses,
@@ -139,6 +139,10 @@ def _ground(
     symmetry, turns_margin = as_seen(shape, views), None
     if shape.kind != "none" and symmetry.kind == "none" and not hinted:  # a print: does it tell the shape's twins?
         sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine)
+    if symmetry.axis is not None and not hinted:  # its turn about its axis unread: a handle the capture hid tells it
+        behind = _hidden_handle(sim, shape, seen0[0], up, inp, pp)
+        if behind is not None:
+            sim, symmetry = behind, SeenSymmetry("none", shape.centre)
     # what is set on its support, the least correction taken and the point whose ray it moves along (ray_rest)
     body0, min_gap, through = pp.cloud0, MIN_GAP_M, None
     middle = body0.mean(axis=0)  # the seen points' middle, as at the start
@@ -409,6 +413,22 @@ def _up_direction(
     (a, b, c, _), _ = pcd.segment_plane(0.01, 3, 200)
     n = np.array([a, b, c]) / np.linalg.norm([a, b, c])
     return -n if n @ pts.mean(axis=0) > 0 else n
+
+
+def _hidden_handle(
+    motion: Similarity, shape: SeenSymmetry, seen0: np.ndarray, up: np.ndarray, inp: GroundingInput, pp: Prepared
+) -> Similarity | None:
+    """`motion` spun to where the goal outline shows a handle that a body of revolution standing in the capture
+    (`seen0`: its points above the support) hid behind it (handle_outline.hidden_handle_spun), or None; for a goal
+    left standing only (a tipped body's outline, its goal depth off, fits a fin anywhere: a raycast plate)."""
+    upright = np.cos(np.radians(UPRIGHT_DEG))
+    if shape.axis is None or abs(float(shape.axis @ up)) < upright or tilt_deg(motion.R, up) > UPRIGHT_DEG:
+        return None
+    outline = goal_outline(inp.mask1, pp.depth1, inp.intrinsics)
+    if outline is None:
+        return None
+    a = up / np.linalg.norm(up)
+    return hidden_handle_spun(motion, shape.centre, a, revolved(seen0, shape.centre, a), outline)
 
 
 def _ranks_above(a: Selected, b: Selected, up: np.ndarray) -> bool:

@@ -53,3 +53,49 @@ def spun_to_outline(motion: Similarity, handled: HandledBody, whole: np.ndarray,
     else:
         angle = np.radians(STEP_DEG) * (pick + parabola_vertex(*cost[(pick + np.array([-1, 0, 1])) % n]))
     return motion.turned_first(Rotation.from_rotvec(angle * handled.axis).as_matrix(), handled.centre)
+
+
+FIN_REACH_REL = (0.3, 0.6, 1.2)  # a handle the capture hid is looked for as a fin reaching these shares of the
+# body's radius out of it (a mug's reaches about half its radius, a pan's more than all of it) ...
+FIN_HEIGHTS = (0.25, 0.75)  # ... between these shares of its seen height
+FIN_POINTS = 10  # along each of its reach and height
+# the fin must take this share of the body's own misfit away: a fin fills any gap between a body of revolution drawn
+# from its seen slices and the goal outline a little (raycast cans and bottles: 0.25-0.45 of it), a handle most of it
+# (mugs whose capture hid theirs: 0.4-0.8)
+FIN_SHARE = 0.5
+
+
+def hidden_handle_spun(
+    motion: Similarity, centre: np.ndarray, axis: np.ndarray, body: np.ndarray, outline: GoalOutline
+) -> Similarity | None:
+    """`motion` spun about the axis (`centre`, unit `axis`: camera frame) of a body of revolution standing in the
+    capture (its `body`: the seen slices spun round, contact.symmetry.revolved) to where the goal outline shows a
+    handle the capture did not: None where the outline shows none. A handle the capture did not see was behind the
+    body, straight behind give or take the sector that hides it: a fin there (of a few reaches), spun with the body,
+    must fit the outline clearly better than the body alone (BETTER_BY_PX2, and FIN_SHARE of its misfit), along it
+    nearly all round (MIN_ALONG).
+    Raycast mugs whose handle the capture hid had come out 100-180 deg off, read as bodies of revolution."""
+    away = centre - (centre @ axis) * axis  # from the camera toward the axis, across it: the side it hid
+    if np.linalg.norm(away) < 1e-6:
+        return None
+    away /= np.linalg.norm(away)
+    off = body - centre
+    heights = off @ axis
+    radius = float(np.percentile(np.linalg.norm(off - np.outer(heights, axis), axis=1), 90))
+    lo, hi = np.percentile(heights, 100 * np.array(FIN_HEIGHTS))
+    spins = spins_about(axis, STEP_DEG)
+    sets = [motion.apply(np.vstack([body, np.repeat(centre[None], FIN_POINTS**2, axis=0)]))]  # the body alone
+    for reach in FIN_REACH_REL:
+        r, h = np.meshgrid(np.linspace(radius, radius * (1 + reach), FIN_POINTS), np.linspace(lo, hi, FIN_POINTS))
+        whole = np.vstack([body, centre + np.outer(r.ravel(), away) + np.outer(h.ravel(), axis)])
+        sets += [motion.turned_first(g, centre).apply(whole) for g in spins]
+    fits = outline.fits(np.stack(sets))
+    alone, cost = fits.cost[0], fits.cost[1:].reshape(len(FIN_REACH_REL), len(spins))
+    reach, best = np.unravel_index(int(np.argmin(cost)), cost.shape)
+    if not alone - cost[reach, best] > max(BETTER_BY_PX2, FIN_SHARE * alone):
+        return None
+    if fits.along[1 + reach * len(spins) + best] < MIN_ALONG:
+        return None
+    vertex = parabola_vertex(*cost[reach, (best + np.array([-1, 0, 1])) % len(spins)])
+    angle = np.radians(STEP_DEG) * (best + vertex)
+    return motion.turned_first(Rotation.from_rotvec(angle * axis).as_matrix(), centre)

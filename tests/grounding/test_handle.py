@@ -265,3 +265,32 @@ def test_an_outline_that_shows_no_handle_keeps_a_spin_that_hides_it():
     bar[100:104, 60:260] = True
     beside = standing(hidden_yaw + 90.0)
     assert spun_to_outline(beside, handled, whole, goal_outline(bar, view1.depth, K)) is beside
+
+
+@pytest.mark.parametrize("off_deg", [150.0, -80.0])
+def test_a_handle_the_capture_hid_is_found_where_the_goal_outline_shows_it(off_deg):
+    """The capture saw the mug's wall only (its handle straight behind it, hidden); the goal shows the handle beside
+    the body. A motion spun off_deg from the truth is spun back to where the outline shows the handle (the handle
+    taken as straight behind in the capture: within 5 deg here, where it was); a goal whose handle hides behind the
+    body shows none, and the body is left as a body of revolution."""
+    from pipeline.contact.symmetry import revolved
+    from pipeline.grounding.handle_outline import hidden_handle_spun
+    from pipeline.grounding.outline_fit import goal_outline
+
+    ray = BASE - (BASE @ UP) * UP
+    away = ray / np.linalg.norm(ray)
+    yaw0 = max(np.arange(0.0, 360.0, 0.5), key=lambda y: (ON_TABLE @ _spin_z(y) @ [1.0, 0.0, 0.0]) @ away)
+    points, normals = _mug(np.random.default_rng(8), yaw0, BASE, bar_height=0.05)
+    wall = points[np.abs(normals @ UP) < 0.5]  # what the capture saw: the handle behind the body is not among it
+    body = revolved(wall, BASE, UP)
+    truth = Similarity(1.0, _spin(100.0), BASE - _spin(100.0) @ BASE)  # the handle turned to one side
+    outline = goal_outline(_goal_view(yaw0 + 100.0, bar_height=0.05).mask, np.full((K.height, K.width), 0.6), K)
+    wrong = truth.turned_first(_spin(off_deg), BASE)
+    found = hidden_handle_spun(wrong, BASE, UP, body, outline)
+    assert found is not None and rotation_deg(found.R.T @ truth.R) < 5.0
+    hidden = goal_outline(_goal_view(yaw0, bar_height=0.05).mask, np.full((K.height, K.width), 0.6), K)
+    assert hidden_handle_spun(wrong, BASE, UP, body, hidden) is None
+
+
+def _spin_z(deg: float) -> np.ndarray:
+    return Rotation.from_euler("z", deg, degrees=True).as_matrix()
