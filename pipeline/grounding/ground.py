@@ -31,7 +31,7 @@ from pipeline.grounding.hypotheses import (
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.outline_fit import goal_outline
 from pipeline.grounding.outline_place import placed_on_outline
-from pipeline.grounding.prepare import Prepared, prepare, refuse
+from pipeline.grounding.prepare import Prepared, object_size, prepare, refuse
 from pipeline.grounding.ray_rest import (
     MIN_GAP_M,
     UPRIGHT_DEG,
@@ -187,10 +187,11 @@ def _ground(
             **common,
         )
     spread = _second_extent(view0.cloud[inliers])
-    if spread < cfg.min_spread_rel * size:
+    body_size = object_size(seen0[0])  # the body's own: a mask's bleed onto the table far behind it is no part of it
+    if spread < cfg.min_spread_rel * body_size:
         return refuse(
             f"degenerate correspondences: inliers lie nearly on a line (second extent {spread * 1000:.1f} mm, "
-            f"object size {size * 1000:.0f} mm)",
+            f"the object's seen body {body_size * 1000:.0f} mm)",
             **common,
         )
     lo, hi = cfg.scale_range
