@@ -148,6 +148,17 @@ def spins_about(axis: np.ndarray, step_deg: float) -> np.ndarray:
     return Rotation.from_rotvec(np.radians(np.arange(0.0, 360.0, step_deg))[:, None] * axis).as_matrix()
 
 
+def tied_run(tied: np.ndarray, start: int) -> tuple[int, int]:
+    """(lo, hi): the run of True in `tied` (K,: one per spin, round the circle) holding index `start`, as indices
+    lo <= start <= hi that may reach past either end (taken modulo K); at most the whole circle."""
+    n, lo, hi = len(tied), start, start
+    while tied[(lo - 1) % n] and hi - lo < n - 1:
+        lo -= 1
+    while tied[(hi + 1) % n] and hi - lo < n - 1:
+        hi += 1
+    return lo, hi
+
+
 def sphere_directions(count: int) -> np.ndarray:
     """(count, 3) unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
     k = np.arange(count) + 0.5

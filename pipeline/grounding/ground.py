@@ -113,13 +113,14 @@ def _ground(
     common["matches"] = len(m.src_px)
     candidates = fits + geometric
     chosen = select_motion(candidates, view0, view1, K, size, cfg, hints)
+    middle = pp.cloud0.mean(axis=0)  # the seen points' middle, as at the start
     twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)
     if twins:  # the winner turned end for end, refined and scored alike: taken where it explains the views better
         twin = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
         if _ranks_above(twin, chosen, up):
             chosen = twin
     if not chosen.hinted and tilt_deg(chosen.motion.R, up) > 90.0 + LYING_DEG:  # turned over: its twins kept up too
-        over = SeenSymmetry("revolution", pp.cloud0.mean(axis=0), axis=up)  # end for end about the vertical
+        over = SeenSymmetry("revolution", middle, axis=up)  # end for end about the vertical
         flips = end_for_end(chosen.motion, over, view0.cloud, view1.cloud)
         twin = select_motion(flips, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
         if _ranks_above(twin, chosen, up):
@@ -145,7 +146,6 @@ def _ground(
             sim, symmetry = behind, SeenSymmetry("none", shape.centre)
     # what is set on its support, the least correction taken and the point whose ray it moves along (ray_rest)
     body0, min_gap, through = pp.cloud0, MIN_GAP_M, None
-    middle = body0.mean(axis=0)  # the seen points' middle, as at the start
     # `placed`: the motion moved across the ray to where the goal image shows the object (silhouette.py); the checks
     # below judge `sim`, the registration, on the goal cloud it was fitted to: the model's depth the move corrects
     # would refuse it (a ball put back on its outline's ray kept 2 of its 430 points within 4.5 mm of the goal cloud)

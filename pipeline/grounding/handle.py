@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import revolved
-from pipeline.grounding.compare import spins_about
+from pipeline.grounding.compare import spins_about, tied_run
 from pipeline.grounding.seen_symmetry import handle_azimuth, handle_points, standing_axis, vertical_axis_centre
 from pipeline.grounding.seen_turns import read_turns
 from pipeline.grounding.tilt import level_twin
@@ -161,13 +161,9 @@ def _drawn(X: np.ndarray, K: CameraIntrinsics) -> np.ndarray:
 
 def _middle_of_best(scores: np.ndarray) -> int:
     """The index in the middle of the run (round the circle of turns) of scores within TIED of the best."""
-    n, top = len(scores), int(np.argmax(scores))
+    top = int(np.argmax(scores))
     tied = scores >= scores[top] - TIED
     if tied.all():
         return top
-    lo, hi = top, top
-    while tied[(lo - 1) % n]:
-        lo -= 1
-    while tied[(hi + 1) % n]:
-        hi += 1
-    return ((lo + hi) // 2) % n
+    lo, hi = tied_run(tied, top)
+    return ((lo + hi) // 2) % len(scores)

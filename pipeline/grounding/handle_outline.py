@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.compare import spins_about
+from pipeline.grounding.compare import spins_about, tied_run
 from pipeline.grounding.handle import HandledBody
 from pipeline.grounding.outline_fit import GoalOutline, parabola_vertex
 from pipeline.grounding.umeyama import Similarity
@@ -43,16 +43,16 @@ def spun_to_outline(motion: Similarity, handled: HandledBody, whole: np.ndarray,
     away = np.minimum(steps, n - steps)  # steps from the motion's own spin, either way round
     tied = cost <= cost[best] + TIED_PX2
     pick = int(np.argmin(np.where(tied, away, n)))
-    lo, hi = pick, pick  # the run of tied spins it lies in: a handle hidden behind the body ties over a sector
-    while tied[(lo - 1) % n] and hi - lo < n - 1:
-        lo -= 1
-    while tied[(hi + 1) % n] and hi - lo < n - 1:
-        hi += 1
-    if hi > lo:  # the middle of the run: the handle straight behind, not at the edge of the sector that hides it
-        angle = np.radians(STEP_DEG) * 0.5 * (lo + hi)
-    else:
-        angle = np.radians(STEP_DEG) * (pick + parabola_vertex(*cost[(pick + np.array([-1, 0, 1])) % n]))
+    lo, hi = tied_run(tied, pick)  # a handle hidden behind the body ties over a sector
+    # the middle of the run: the handle straight behind, not at the edge of the sector that hides it
+    angle = np.radians(STEP_DEG) * 0.5 * (lo + hi) if hi > lo else _refined_angle(cost, pick)
     return motion.turned_first(Rotation.from_rotvec(angle * handled.axis).as_matrix(), handled.centre)
+
+
+def _refined_angle(cost: np.ndarray, index: int) -> float:
+    """The spin [rad] at the vertex of the parabola through the costs (K,: one per STEP_DEG spin round the circle) at
+    `index` and its two neighbours."""
+    return np.radians(STEP_DEG) * (index + parabola_vertex(*cost[(index + np.array([-1, 0, 1])) % len(cost)]))
 
 
 FIN_REACH_REL = (0.3, 0.6, 1.2)  # a handle the capture hid is looked for as a fin reaching these shares of the
@@ -91,11 +91,9 @@ def hidden_handle_spun(
         sets += [motion.turned_first(g, centre).apply(whole) for g in spins]
     fits = outline.fits(np.stack(sets))
     alone, cost = fits.cost[0], fits.cost[1:].reshape(len(FIN_REACH_REL), len(spins))
+    along = fits.along[1:].reshape(cost.shape)
     reach, best = np.unravel_index(int(np.argmin(cost)), cost.shape)
-    if not alone - cost[reach, best] > max(BETTER_BY_PX2, FIN_SHARE * alone):
+    if not alone - cost[reach, best] > max(BETTER_BY_PX2, FIN_SHARE * alone) or along[reach, best] < MIN_ALONG:
         return None
-    if fits.along[1 + reach * len(spins) + best] < MIN_ALONG:
-        return None
-    vertex = parabola_vertex(*cost[reach, (best + np.array([-1, 0, 1])) % len(spins)])
-    angle = np.radians(STEP_DEG) * (best + vertex)
+    angle = _refined_angle(cost[reach], int(best))
     return motion.turned_first(Rotation.from_rotvec(angle * axis).as_matrix(), centre)
