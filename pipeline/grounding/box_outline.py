@@ -54,7 +54,7 @@ def turned_to_outline(motion: Similarity, box: SeenBox, up: np.ndarray, outline:
     if abs(angle) < np.radians(MIN_TURN_DEG):
         return start
     Y = Rotation.from_rotvec(angle * up).as_matrix()
-    return Similarity(start.scale, Y @ start.R, Y @ (start.t - centre) + centre)
+    return start.turned_after(Y, centre)
 
 
 def face_down(motion: Similarity, box: SeenBox, up: np.ndarray) -> Similarity | None:
@@ -66,7 +66,7 @@ def face_down(motion: Similarity, box: SeenBox, up: np.ndarray) -> Similarity | 
         return None
     G = turns_onto(normal, up[None])[0]
     centre = motion.apply(box.centre[None])[0]
-    return Similarity(motion.scale, G @ motion.R, G @ (motion.t - centre) + centre)
+    return motion.turned_after(G, centre)
 
 
 def face_lean_deg(motion: Similarity, box: SeenBox, up: np.ndarray) -> float:

@@ -94,7 +94,7 @@ def axis_turned_to_outline(
     if least > min(TURN_GAIN * now, MIRROR_SPREAD_REL) or abs(best) >= TURN_RANGE_DEG:
         return motion  # no clearer symmetry, or none within reach (still falling at the range's end)
     turn = Rotation.from_rotvec(np.radians(best) * ray).as_matrix()
-    return Similarity(motion.scale, turn @ motion.R, turn @ (motion.t - goal) + goal)
+    return motion.turned_after(turn, goal)
 
 
 def _outline_rays(mask: np.ndarray, K: CameraIntrinsics) -> np.ndarray | None:

@@ -46,7 +46,7 @@ def level_twin(motion: Similarity, up: np.ndarray, centre: np.ndarray) -> Simila
         return None
     G = Rotation.from_rotvec(angle * axis / np.linalg.norm(axis)).as_matrix()
     p = motion.apply(centre[None])[0]
-    return Similarity(motion.scale, G @ motion.R, G @ (motion.t - p) + p)
+    return motion.turned_after(G, p)
 
 
 def kept_level(

@@ -26,6 +26,10 @@ class Similarity:
         """This motion after the object is first turned by g (3, 3) about `centre`: its twin under that turn."""
         return Similarity(self.scale, self.R @ g, self.scale * self.R @ (centre - g @ centre) + self.t)
 
+    def turned_after(self, G: np.ndarray, point: np.ndarray) -> Similarity:
+        """This motion followed by the turn G (3, 3) about `point` (where the motion puts things)."""
+        return Similarity(self.scale, G @ self.R, G @ (self.t - point) + point)
+
     @property
     def matrix(self) -> np.ndarray:
         T = np.eye(4)
