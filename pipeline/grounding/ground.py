@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 from pipeline.contact.symmetry import revolved
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.box_outline import face_lean_deg, turned_to_outline
-from pipeline.grounding.disc_outline import tipped_disc
+from pipeline.grounding.disc_outline import is_plate, leaned_to_outline, tipped_disc
 from pipeline.grounding.handle import HandledBody, ends_by_print, handle_hypotheses, handled_body, turn_by_handle
 from pipeline.grounding.handle_outline import hidden_handle_spun, spun_to_outline
 from pipeline.grounding.hypotheses import (
@@ -369,7 +369,8 @@ def _on_goal_outline(
     """A model's goal turned and moved along the table to where the goal mask's outline shows it, for bodies whose
     whole shape the capture gives: a box turned about the vertical (box_outline.py; where that sets it on a face, set
     down on the table in `scene`, the capture's other points) and moved, a handled body spun about its axis
-    (handle_outline.py) and moved, a body of revolution moved (outline_place.py). The outline does not depend on the
+    (handle_outline.py) and moved, a body of revolution moved (outline_place.py), a tipped plate leaned first
+    (disc_outline.leaned_to_outline). The outline does not depend on the
     model's depth, which leans a small box off its face, lays a mug's handle along a grown mask and puts a large pan
     or a bowl centimetres off. A tipped one is then raised out of the table where the model's depth sank it
     (ray_rest.out_of_support)."""
@@ -391,8 +392,13 @@ def _on_goal_outline(
         whole, centre = handled.whole(), handled.centre
         motion = spun_to_outline(motion, handled, whole, outline)
     else:
-        whole, centre = revolved(seen0[0], shape.centre, shape.axis / np.linalg.norm(shape.axis)), shape.centre
+        axis = shape.axis / np.linalg.norm(shape.axis)
+        whole, centre = revolved(seen0[0], shape.centre, axis), shape.centre
     whole = down_to_support(whole, scene, up)  # its seen points stop above the table: its outline does not
+    # a plate lying on the table in the capture, tipped in the goal: its lean shows in its outline
+    tipped = tilt_deg(motion.R, up) > UPRIGHT_DEG
+    if box is None and handled is None and tipped and _along_vertical(axis, up) and is_plate(seen0, centre, axis):
+        motion = leaned_to_outline(motion, whole, centre, axis, outline)
     placed = placed_on_outline(motion, whole, centre, up, outline, size)
     if tilt_deg(placed.R, up) <= UPRIGHT_DEG:  # upright: ray_rest kept its height above the support
         return placed
@@ -422,14 +428,19 @@ def _hidden_handle(
     """`motion` spun to where the goal outline shows a handle that a body of revolution standing in the capture
     (`seen0`: its points above the support) hid behind it (handle_outline.hidden_handle_spun), or None; for a goal
     left standing only (a tipped body's outline, its goal depth off, fits a fin anywhere: a raycast plate)."""
-    upright = np.cos(np.radians(UPRIGHT_DEG))
-    if shape.axis is None or abs(float(shape.axis @ up)) < upright or tilt_deg(motion.R, up) > UPRIGHT_DEG:
+    if shape.axis is None or not _along_vertical(shape.axis, up) or tilt_deg(motion.R, up) > UPRIGHT_DEG:
         return None
     outline = goal_outline(inp.mask1, pp.depth1, inp.intrinsics)
     if outline is None:
         return None
     a = up / np.linalg.norm(up)
     return hidden_handle_spun(motion, shape.centre, a, revolved(seen0, shape.centre, a), outline)
+
+
+def _along_vertical(axis: np.ndarray, up: np.ndarray) -> bool:
+    """Whether a body's `axis` (camera frame, as `up`) lies within UPRIGHT_DEG of the vertical: it stands (or lies
+    flat) on the table."""
+    return abs(float(axis @ up)) >= np.cos(np.radians(UPRIGHT_DEG)) * np.linalg.norm(axis) * np.linalg.norm(up)
 
 
 def _ranks_above(a: Selected, b: Selected, up: np.ndarray) -> bool:
