@@ -9,22 +9,18 @@ whose long axis is the disc's width. That leaves four tilts (toward or away from
 the one whose agreement over all points (Agreement.whole) is best is set down on the table beneath it (the goal
 rests on its rim), refined by ICP and set down again.
 
-Where a plate's tilt was found, its goal depth, a thin face warped and bled, leaves its lean toward or away from the
-camera some degrees off (raycast plates 5-10 deg), while its outline's ellipse narrows with every degree: the lean
-whose hull lies along the goal outline best is taken (leaned_to_outline). A bowl's or a can's outline changes too
-little with its lean for that (raycast bowls and cans read 2-8 deg off where their depth had them right).
+A plate seen from above (is_plate) has its lean toward or away from the camera read off its goal outline as found
+(lean_outline.py): its ellipse narrows with every degree of it.
 """
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.contact.symmetry import revolved, slice_radii
 from pipeline.grounding.compare import turns_onto
-from pipeline.grounding.outline_fit import GoalOutline, parabola_vertex
 from pipeline.grounding.ray_rest import set_down
 from pipeline.grounding.select import Selected, fine_tolerance, select_motion
 from pipeline.grounding.silhouette import largest_outline
@@ -33,13 +29,12 @@ from pipeline.grounding.umeyama import Similarity
 from pipeline.grounding.verify import View, view_evidences
 
 FLAT_REL = 0.3  # seen along its axis less than this share of its width: flat (a plate; a bowl is not)
-# a plate's outline shows its lean, a bowl's hardly: seen along their axes raycast plates span 0.05-0.10 of their
+# a plate's outline shows its lean, a bowl's less: seen along their axes raycast plates span 0.05-0.10 of their
 # width, bowls 0.20-0.30 (their outline read leans 2-3 deg off where the depth had them right) ...
 PLATE_REL = 0.15
 # ... and a plate seen from above shows its face: most of its seen surface faces within 45 deg of its axis (raycast
 # plates: median 0.75-0.95 of it), not the end of a can lying on its side read as standing (0.64; leaned 4 deg off)
 FACING_COS = float(np.cos(np.radians(45.0)))
-LEAN_SPAN_DEG, LEAN_STEP_DEG = 15.0, 1.0  # a tipped plate's leans tried either way, and their step
 
 
 def is_flat(seen0: np.ndarray, point: np.ndarray, direction: np.ndarray, rel: float = FLAT_REL) -> bool:
@@ -54,29 +49,6 @@ def is_plate(seen0: tuple[np.ndarray, np.ndarray], point: np.ndarray, direction:
     direction) is a plate seen from above (PLATE_REL, FACING_COS)."""
     points, normals = seen0
     return is_flat(points, point, direction, PLATE_REL) and float(np.median(np.abs(normals @ direction))) >= FACING_COS
-
-
-def leaned_to_outline(
-    motion: Similarity, whole: np.ndarray, centre: np.ndarray, direction: np.ndarray, outline: GoalOutline
-) -> Similarity:
-    """`motion` with the flat body's axis (`direction`, unit, as at the start) leaned toward or away from the camera,
-    about the line across the goal ray through where it puts `centre`, to where the hull of its `whole` (points as
-    at the start) lies along the goal outline best."""
-    goal = motion.apply(centre[None])[0]
-    across = np.cross(goal, motion.R @ direction)
-    if np.linalg.norm(across) < 1e-6 * np.linalg.norm(goal):  # seen face on: every lean casts the same outline
-        return motion
-    across /= np.linalg.norm(across)
-    angles = np.radians(np.arange(-LEAN_SPAN_DEG, LEAN_SPAN_DEG + 1e-9, LEAN_STEP_DEG))
-    turns = Rotation.from_rotvec(angles[:, None] * across).as_matrix()
-    cost = outline.fits(np.einsum("aij,nj->ani", turns, motion.apply(whole) - goal) + goal).cost
-    best = int(np.argmin(cost))
-    if not np.isfinite(cost[best]):
-        return motion
-    vertex = parabola_vertex(*cost[best - 1 : best + 2]) if 0 < best < len(angles) - 1 else 0.0
-    return motion.turned_after(
-        Rotation.from_rotvec((angles[best] + np.radians(LEAN_STEP_DEG) * vertex) * across).as_matrix(), goal
-    )
 
 
 def tipped_disc(

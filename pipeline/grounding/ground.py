@@ -8,7 +8,7 @@ on the masked clouds; refuse, with a reason, whenever a check fails.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import cv2
 import numpy as np
@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 from pipeline.contact.symmetry import revolved
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.box_outline import face_lean_deg, turned_to_outline
-from pipeline.grounding.disc_outline import is_plate, leaned_to_outline, tipped_disc
+from pipeline.grounding.disc_outline import is_plate, tipped_disc
 from pipeline.grounding.handle import HandledBody, ends_by_print, handle_hypotheses, handled_body, turn_by_handle
 from pipeline.grounding.handle_outline import hidden_handle_spun, spun_to_outline
 from pipeline.grounding.hypotheses import (
@@ -28,6 +28,7 @@ from pipeline.grounding.hypotheses import (
     footprint_hypotheses,
     sweep_hypotheses,
 )
+from pipeline.grounding.lean_outline import leaned_to_outline
 from pipeline.grounding.matching import Matches, match_pixels, pairwise_consistency
 from pipeline.grounding.outline_fit import goal_outline
 from pipeline.grounding.outline_place import placed_on_outline
@@ -146,9 +147,13 @@ def _ground(
             sim, symmetry = behind, SeenSymmetry("none", shape.centre)
     # what is set on its support, the least correction taken and the point whose ray it moves along (ray_rest)
     body0, min_gap, through = pp.cloud0, MIN_GAP_M, None
+
     # `placed`: the motion moved across the ray to where the goal image shows the object (silhouette.py); the checks
     # below judge `sim`, the registration, on the goal cloud it was fitted to: the model's depth the move corrects
     # would refuse it (a ball put back on its outline's ray kept 2 of its 430 points within 4.5 mm of the goal cloud)
+    def geometry(motion: Similarity) -> float:  # the views' geometric agreement with a motion
+        return view_consistency(motion, view0, view1, K, fine).geometry
+
     if symmetry.kind == "ball" and not hinted:  # no turn shows: its motion is its centre's shift, nothing tilts it
         sim = Similarity(sim.scale, np.eye(3), sim.apply(symmetry.centre[None])[0] - sim.scale * symmetry.centre)
         ray = None if inp.depth1_measured else silhouette_ray(inp.mask1, K)
@@ -157,10 +162,6 @@ def _ground(
         radius = float(np.median(np.linalg.norm(pp.cloud0 - symmetry.centre, axis=1)))
         body0, min_gap = ball_surface(symmetry.centre, radius), 0.0
     elif not hinted:  # a tilt the views do not show better than none is not taken
-
-        def geometry(motion: Similarity) -> float:
-            return view_consistency(motion, view0, view1, K, fine).geometry
-
         sim = placed = kept_level(sim, up, shape.centre, geometry)
         if shape.axis is not None and not inp.depth1_measured:  # a model's depth can put it to one side
             if tilt_deg(sim.R, up) > UPRIGHT_DEG:  # a tipped body's axis turned across the ray to its outline's
@@ -228,7 +229,7 @@ def _ground(
         spin = None if shape.axis is None else (shape.centre, shape.axis)  # its turns about its axis look alike
         scene = _scene_around(pp.points0, inp.mask0)
         placed, rested = rest_along_ray(placed, body0, scene, up, min_gap, through, spin)
-        placed = _on_goal_outline(placed, shape, seen0, handled, up, inp, pp, size, scene)
+        placed = _on_goal_outline(placed, shape, seen0, handled, up, inp, pp, size, scene, geometry)
     t_rigid = placed.apply(middle[None])[0] - placed.R @ middle  # the middle lands where the similarity puts it
     confidence = float(view_score * min(1.0, n_in / 30) * np.exp(-rms / threshold))
     return ObjectMotion(
@@ -365,12 +366,13 @@ def _on_goal_outline(
     pp: Prepared,
     size: float,
     scene: np.ndarray,
+    geometry: Callable[[Similarity], float],
 ) -> Similarity:
     """A model's goal turned and moved along the table to where the goal mask's outline shows it, for bodies whose
     whole shape the capture gives: a box turned about the vertical (box_outline.py; where that sets it on a face, set
     down on the table in `scene`, the capture's other points) and moved, a handled body spun about its axis
-    (handle_outline.py) and moved, a body of revolution moved (outline_place.py), a tipped plate leaned first
-    (disc_outline.leaned_to_outline). The outline does not depend on the
+    (handle_outline.py) and moved, a body of revolution moved (outline_place.py), a tipped one leaned first
+    toward or away from the camera (lean_outline.py). The outline does not depend on the
     model's depth, which leans a small box off its face, lays a mug's handle along a grown mask and puts a large pan
     or a bowl centimetres off. A tipped one is then raised out of the table where the model's depth sank it
     (ray_rest.out_of_support)."""
@@ -395,10 +397,12 @@ def _on_goal_outline(
         axis = shape.axis / np.linalg.norm(shape.axis)
         whole, centre = revolved(seen0[0], shape.centre, axis), shape.centre
     whole = down_to_support(whole, scene, up)  # its seen points stop above the table: its outline does not
-    # a plate lying on the table in the capture, tipped in the goal: its lean shows in its outline
-    tipped = tilt_deg(motion.R, up) > UPRIGHT_DEG
-    if box is None and handled is None and tipped and _along_vertical(axis, up) and is_plate(seen0, centre, axis):
-        motion = leaned_to_outline(motion, whole, centre, axis, outline)
+    if box is None and handled is None and tilt_deg(motion.R, up) > UPRIGHT_DEG:  # a tipped body of revolution
+        leaned = leaned_to_outline(motion, whole, centre, axis, outline)
+        # a plate lying on the table in the capture shows its lean in its outline; a can, a bottle or a bowl less
+        # than their depth's warp hides it: their lean is taken where the views agree with it no less
+        if (_along_vertical(axis, up) and is_plate(seen0, centre, axis)) or geometry(leaned) >= geometry(motion):
+            motion = leaned
     placed = placed_on_outline(motion, whole, centre, up, outline, size)
     if tilt_deg(placed.R, up) <= UPRIGHT_DEG:  # upright: ray_rest kept its height above the support
         return placed
