@@ -16,7 +16,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from pipeline.grounding.compare import turns_onto
-from pipeline.grounding.outline_fit import GoalOutline, parabola_vertex
+from pipeline.grounding.outline_fit import GoalOutline, refined_angle, turned_about
 from pipeline.grounding.seen_symmetry import SeenBox
 from pipeline.grounding.umeyama import Similarity
 
@@ -41,15 +41,14 @@ def turned_to_outline(motion: Similarity, box: SeenBox, up: np.ndarray, outline:
     centre = motion.apply(box.centre[None])[0]
     starts = [motion] + [flat for flat in (face_down(motion, box, up),) if flat is not None]
     angles = np.radians(np.arange(-SPAN_DEG, SPAN_DEG + 1e-9, STEP_DEG))
-    turns = Rotation.from_rotvec(angles[:, None] * up).as_matrix()
-    goals = [start.apply(box.corners) - centre for start in starts]
-    fits = outline.fits(np.concatenate([np.einsum("aij,cj->aci", turns, goal) + centre for goal in goals]))
+    fits = outline.fits(
+        np.concatenate([turned_about(start.apply(box.corners), centre, up, angles) for start in starts])
+    )
     cost = fits.cost.reshape(len(starts), len(angles))
     which, best = np.unravel_index(int(np.argmin(cost)), cost.shape)
     if fits.along.reshape(cost.shape)[which, best] < MIN_ALONG:
         return motion
-    vertex = parabola_vertex(*cost[which, best - 1 : best + 2]) if 0 < best < len(angles) - 1 else 0.0
-    angle = angles[best] + np.radians(STEP_DEG) * vertex
+    angle = refined_angle(cost[which], angles, int(best))
     start = starts[which]
     if abs(angle) < np.radians(MIN_TURN_DEG):
         return start

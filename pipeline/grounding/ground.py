@@ -145,15 +145,15 @@ def _ground(
         behind = _hidden_handle(sim, shape, seen0[0], up, inp, pp)
         if behind is not None:
             sim, symmetry = behind, SeenSymmetry("none", shape.centre)
-    # what is set on its support, the least correction taken and the point whose ray it moves along (ray_rest)
-    body0, min_gap, through = pp.cloud0, MIN_GAP_M, None
 
-    # `placed`: the motion moved across the ray to where the goal image shows the object (silhouette.py); the checks
-    # below judge `sim`, the registration, on the goal cloud it was fitted to: the model's depth the move corrects
-    # would refuse it (a ball put back on its outline's ray kept 2 of its 430 points within 4.5 mm of the goal cloud)
     def geometry(motion: Similarity) -> float:  # the views' geometric agreement with a motion
         return view_consistency(motion, view0, view1, K, fine).geometry
 
+    # what is set on its support, the least correction taken and the point whose ray it moves along (ray_rest)
+    body0, min_gap, through = pp.cloud0, MIN_GAP_M, None
+    # `placed`: the motion moved across the ray to where the goal image shows the object (silhouette.py); the checks
+    # below judge `sim`, the registration, on the goal cloud it was fitted to: the model's depth the move corrects
+    # would refuse it (a ball put back on its outline's ray kept 2 of its 430 points within 4.5 mm of the goal cloud)
     if symmetry.kind == "ball" and not hinted:  # no turn shows: its motion is its centre's shift, nothing tilts it
         sim = Similarity(sim.scale, np.eye(3), sim.apply(symmetry.centre[None])[0] - sim.scale * symmetry.centre)
         ray = None if inp.depth1_measured else silhouette_ray(inp.mask1, K)
@@ -401,7 +401,8 @@ def _on_goal_outline(
         leaned = leaned_to_outline(motion, whole, centre, axis, outline)
         # a plate lying on the table in the capture shows its lean in its outline; a can, a bottle or a bowl less
         # than their depth's warp hides it: their lean is taken where the views agree with it no less
-        if (_along_vertical(axis, up) and is_plate(seen0, centre, axis)) or geometry(leaned) >= geometry(motion):
+        plate = _along_vertical(axis, up) and is_plate(seen0, centre, axis)
+        if leaned is not motion and (plate or geometry(leaned) >= geometry(motion)):
             motion = leaned
     placed = placed_on_outline(motion, whole, centre, up, outline, size)
     if tilt_deg(placed.R, up) <= UPRIGHT_DEG:  # upright: ray_rest kept its height above the support

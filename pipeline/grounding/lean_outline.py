@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pipeline.grounding.outline_fit import GoalOutline, parabola_vertex
+from pipeline.grounding.outline_fit import GoalOutline, refined_angle, turned_about
 from pipeline.grounding.umeyama import Similarity
 
 SPAN_DEG, STEP_DEG = 15.0, 1.0  # the leans tried either way, and their step
@@ -32,11 +32,9 @@ def leaned_to_outline(
         return motion
     across /= np.linalg.norm(across)
     angles = np.radians(np.arange(-SPAN_DEG, SPAN_DEG + 1e-9, STEP_DEG))
-    turns = Rotation.from_rotvec(angles[:, None] * across).as_matrix()
-    cost = outline.fits(np.einsum("aij,nj->ani", turns, motion.apply(whole) - goal) + goal).cost
+    cost = outline.fits(turned_about(motion.apply(whole), goal, across, angles)).cost
     best = int(np.argmin(cost))
     if not np.isfinite(cost[best]):
         return motion
-    vertex = parabola_vertex(*cost[best - 1 : best + 2]) if 0 < best < len(angles) - 1 else 0.0
-    lean = angles[best] + np.radians(STEP_DEG) * vertex
+    lean = refined_angle(cost, angles, best)
     return motion.turned_after(Rotation.from_rotvec(lean * across).as_matrix(), goal)

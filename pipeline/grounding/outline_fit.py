@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
 from pipeline.grounding.silhouette import largest_outline
@@ -87,6 +88,20 @@ def goal_outline(mask1: np.ndarray, depth1: np.ndarray, K: CameraIntrinsics) -> 
     cv2.drawContours(filled, [hull], -1, 1, thickness=cv2.FILLED, offset=(-x0, -y0))
     distance = cv2.distanceTransform(1 - filled, cv2.DIST_L2, 5) - cv2.distanceTransform(filled, cv2.DIST_L2, 5)
     return GoalOutline(distance, np.array([x0, y0], dtype=np.float64), depth1, K)
+
+
+def turned_about(points: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """(A, N, 3): the points (N, 3, camera frame) turned by each of the angles (A,, rad) about the unit `axis` through
+    `pivot`, as sets to fit (GoalOutline.fits)."""
+    turns = Rotation.from_rotvec(angles[:, None] * axis).as_matrix()
+    return np.einsum("aij,nj->ani", turns, points - pivot) + pivot
+
+
+def refined_angle(cost: np.ndarray, angles: np.ndarray, best: int) -> float:
+    """The angle [rad] at the vertex of the parabola through the costs (A,) of evenly spaced `angles` at `best` and
+    its two neighbours; `angles[best]` itself at either end."""
+    vertex = parabola_vertex(*cost[best - 1 : best + 2]) if 0 < best < len(angles) - 1 else 0.0
+    return float(angles[best] + (angles[1] - angles[0]) * vertex)
 
 
 def parabola_vertex(a: float, b: float, c: float) -> float:
