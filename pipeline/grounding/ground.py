@@ -26,6 +26,7 @@ from pipeline.grounding.hypotheses import (
     end_for_end,
     face_hypotheses,
     footprint_hypotheses,
+    spun,
     sweep_hypotheses,
 )
 from pipeline.grounding.lean_outline import leaned_to_outline
@@ -115,23 +116,27 @@ def _ground(
     candidates = fits + geometric
     chosen = select_motion(candidates, view0, view1, K, size, cfg, hints)
     middle = pp.cloud0.mean(axis=0)  # the seen points' middle, as at the start
-    twins = [] if chosen.hinted else end_for_end(chosen.motion, shape, view0.cloud, view1.cloud)
-    if twins:  # the winner turned end for end, refined and scored alike: taken where it explains the views better
+
+    def better_twin(winner: Selected, twins: list[Similarity]) -> Selected:
+        """The best of the winner's `twins`, refined and scored alike, where it ranks above the winner."""
+        if not twins:
+            return winner
         twin = select_motion(twins, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
-        if _ranks_above(twin, chosen, up):
-            chosen = twin
+        return twin if _ranks_above(twin, winner, up) else winner
+
+    if not chosen.hinted:  # the winner turned end for end: taken where it explains the views better
+        chosen = better_twin(chosen, end_for_end(chosen.motion, shape, view0.cloud, view1.cloud))
     if not chosen.hinted and tilt_deg(chosen.motion.R, up) > 90.0 + LYING_DEG:  # turned over: its twins kept up too
         over = SeenSymmetry("revolution", middle, axis=up)  # end for end about the vertical
-        flips = end_for_end(chosen.motion, over, view0.cloud, view1.cloud)
-        twin = select_motion(flips, view0, view1, K, size, cfg.model_copy(update={"refine_top": 3}))
-        if _ranks_above(twin, chosen, up):
-            chosen = twin
+        chosen = better_twin(chosen, end_for_end(chosen.motion, over, view0.cloud, view1.cloud))
     if chosen.score < cfg.min_view_score and not chosen.hinted and not inp.depth1_measured and shape.axis is not None:
         # nothing explains the views: a flat body tipped onto its rim, read off its goal outline (disc_outline.py)
         scene = _scene_around(pp.points0, inp.mask0)
         tipped = tipped_disc(view0, view1, K, size, cfg, (shape.centre, shape.axis), seen0[0], scene, up, inp.mask1)
         if tipped is not None and tipped.score >= cfg.min_view_score:
             chosen = tipped
+    if chosen.score < cfg.min_view_score and not chosen.hinted:  # still not borne out: spun about its axis, which
+        chosen = better_twin(chosen, spun(chosen.motion, shape))  # its shape does not show (hypotheses.spun)
     sim, view_score, hinted = chosen.motion, chosen.score, chosen.hinted
     fine = fine_tolerance(size, cfg)
     handled = handled_body(seen0, up) if shape.kind == "none" and not hinted else None

@@ -323,6 +323,17 @@ def end_for_end(motion: Similarity, shape: SeenSymmetry, points0: np.ndarray, po
     return out
 
 
+def spun(motion: Similarity, shape: SeenSymmetry) -> list[Similarity]:
+    """The motion's twins spun about a body of revolution's axis in END_FOR_END_SPIN_DEG steps (itself left out): the
+    spin decides which side of the partial seen surface faces the goal camera, and ICP from one spin settles where it
+    starts (a tipped bottle's winner at view agreement 0.29, its twin spun 30 deg back 0.39): ground() tries them on a
+    winner the views do not bear out before refusing it. None for any other shape."""
+    if shape.axis is None:
+        return []
+    a = shape.axis / np.linalg.norm(shape.axis)
+    return [motion.turned_first(S, shape.centre) for S in spins_about(a, END_FOR_END_SPIN_DEG)[1:]]
+
+
 def _mid(values: np.ndarray) -> float:
     """The middle of the values' extent, robust to a few strays."""
     return 0.5 * float(np.percentile(values, 1) + np.percentile(values, 99))

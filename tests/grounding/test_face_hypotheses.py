@@ -128,3 +128,26 @@ def test_a_round_footprint_gives_no_turn():
     a, r = rng.uniform(0, 2 * np.pi, 2000), 0.05 * np.sqrt(rng.random(2000))
     disc = np.column_stack([r * np.cos(a), r * np.sin(a), np.full(2000, 0.6)])
     assert footprint_hypotheses(disc, disc + np.array([0.1, 0.0, 0.0]), np.array([0.0, 0.0, -1.0])) == []
+
+
+def test_a_motion_spun_about_its_axis_keeps_the_axis_and_turns_the_rest():
+    """hypotheses.spun: eleven twins, 30 deg apart, each putting the axis's points where the motion puts them and
+    turning a point off the axis by its own spin; none for a body with no axis."""
+    from pipeline.grounding.hypotheses import spun
+    from pipeline.grounding.types import SeenSymmetry
+    from pipeline.grounding.umeyama import Similarity
+
+    rng = np.random.default_rng(4)
+    motion = Similarity(1.0, Rotation.from_rotvec(rng.uniform(-1.5, 1.5, 3)).as_matrix(), rng.uniform(-0.1, 0.1, 3))
+    centre, axis = np.array([0.02, -0.03, 0.7]), np.array([0.0, 0.6, 0.8])
+    twins = spun(motion, SeenSymmetry("revolution", centre, axis=axis, shape_kind="revolution"))
+    on_axis = np.array([centre - 0.05 * axis, centre + 0.1 * axis])
+    off_axis = centre + 0.03 * np.cross(axis, [1.0, 0.0, 0.0])
+    assert len(twins) == 11
+    turned = []
+    for twin in twins:
+        np.testing.assert_allclose(twin.apply(on_axis), motion.apply(on_axis), atol=1e-12)
+        a, b = (m.apply(off_axis[None])[0] - m.apply(centre[None])[0] for m in (twin, motion))
+        turned.append(np.degrees(np.arccos(np.clip(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)), -1, 1))))
+    np.testing.assert_allclose(sorted(turned), sorted([30, 60, 90, 120, 150, 180, 150, 120, 90, 60, 30]), atol=1e-6)
+    assert spun(motion, SeenSymmetry("none", centre)) == []
