@@ -161,7 +161,15 @@ def hue_overlap(rgb0: np.ndarray, mask0: np.ndarray, rgb1: np.ndarray, mask1: np
         weight = np.where(hsv[:, 2] >= HUE_MIN_VALUE, hsv[:, 1] / 255.0, 0.0)
         if len(weight) == 0 or weight.mean() < HUE_MIN_SATURATION:
             return None
-        hist = np.bincount((hsv[:, 0] * HUE_BINS / 180.0).astype(int) % HUE_BINS, weight, HUE_BINS)
+        # each pixel shared between its two nearest bins round the circle: hard bins put two hues a few degrees
+        # apart on either side of an edge in no common bin (a red plate's 177 and, after the editor, 2: overlap 0)
+        at = hsv[:, 0] * HUE_BINS / 180.0 - 0.5  # bins centred on whole numbers
+        below = np.floor(at)
+        share = at - below
+        lo = below.astype(int) % HUE_BINS
+        hist = np.bincount(lo, weight * (1.0 - share), HUE_BINS) + np.bincount(
+            (lo + 1) % HUE_BINS, weight * share, HUE_BINS
+        )
         hists.append(hist / hist.sum())
     return float(np.minimum(*hists).sum())
 

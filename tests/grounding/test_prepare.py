@@ -123,3 +123,20 @@ def test_hues_tell_another_object_from_an_editors_drift_and_grey_from_nothing():
     assert hue_overlap(red, obj, drifted, obj) > 0.9
     assert hue_overlap(red, obj, blue, obj) < 0.04
     assert hue_overlap(red, obj, grey, obj) is None
+
+
+def test_two_reds_either_side_of_the_hue_circles_end_overlap():
+    """A dark red of hue 177 (OpenCV's, of 180: 354 deg) and, after an editor's drift, 2 (4 deg): ten degrees apart
+    across the circle's end, where whole bins shared nothing (overlap 0: raycast 606:70, a red plate, was refused as
+    another object); an orange 36 deg on shares part, a blue nothing."""
+    from pipeline.grounding.prepare import hue_overlap
+
+    obj = np.zeros((60, 80), bool)
+    obj[20:40, 30:50] = True
+    magenta_red, orange_red, orange, blue = (
+        np.zeros((60, 80, 3)) + c
+        for c in ((140.0, 20.0, 32.0), (140.0, 26.0, 20.0), (200.0, 100.0, 0.0), (40, 40, 200))
+    )
+    assert hue_overlap(magenta_red, obj, orange_red, obj) > 0.5
+    assert hue_overlap(magenta_red, obj, orange, obj) < 0.5
+    assert hue_overlap(magenta_red, obj, blue, obj) == 0.0
