@@ -108,7 +108,7 @@ class Rig:
         self.sender = Bus(self.cfg.zenoh, "fuzz", "connect")
         self.watch = Tracebacks()
         logging.getLogger().addHandler(self.watch)
-        for key in RUNTIME_KEYS + CONSOLE_KEYS:  # every subscriber is reached before the fuzzing starts
+        for key in ALL_KEYS:  # every subscriber is reached before the fuzzing starts
             doc = valid(key, time.time()) if not key.startswith("images") else None
             raw = json.dumps(doc).encode() if doc else b"\xff\xd8 jpeg"
             bus, pattern = self.target(key)
@@ -168,7 +168,10 @@ def rig():
     rig.close()
 
 
-keys = st.sampled_from(RUNTIME_KEYS + CONSOLE_KEYS)
+ALL_KEYS = RUNTIME_KEYS + CONSOLE_KEYS
+# each family fuzzes the keys one by one: every subscriber gets its share whatever the draws favour (a key drawn
+# from all nine by hypothesis had been handled 5 times in 180 cases, and the coverage check below failed)
+PER_KEY = settings(FUZZ, max_examples=7)
 sizes = st.sampled_from([0, 1, 2, 64 * 1024, 64 * 1024 + 1, 9 * 1024 * 1024])
 random_bytes = st.one_of(st.binary(max_size=3000), sizes.map(lambda n: b"\x7b" * n))
 
@@ -222,20 +225,23 @@ def near_valid(draw, key: str) -> str:
     return text
 
 
-@FUZZ
-@given(key=keys, payload=random_bytes)
+@PER_KEY
+@pytest.mark.parametrize("key", ALL_KEYS)
+@given(payload=random_bytes)
 def test_random_bytes(rig, key, payload):
     rig.deliver(key, payload)
 
 
-@FUZZ
-@given(key=keys, doc=json_values)
+@PER_KEY
+@pytest.mark.parametrize("key", ALL_KEYS)
+@given(doc=json_values)
 def test_random_json(rig, key, doc):
     rig.deliver(key, json.dumps(doc).encode("utf-8", "surrogatepass"))
 
 
-@FUZZ
-@given(data=st.data(), key=keys)
+@PER_KEY
+@pytest.mark.parametrize("key", ALL_KEYS)
+@given(data=st.data())
 def test_near_valid_messages(rig, data, key):
     rig.deliver(key, fresh(data.draw(near_valid(key))))
 
@@ -248,7 +254,7 @@ def test_image_names(rig, name, payload):
 
 def test_every_key_was_reached_and_refused_something(rig):
     """(After the families above: the fuzzing reached every subscriber, and each refused bad input there.)"""
-    for key in RUNTIME_KEYS + CONSOLE_KEYS:
+    for key in ALL_KEYS:
         bus, pattern = rig.target(key)
         if key != "estop":  # the estop key refuses nothing: every sample stops
             assert bus.refused[pattern] > 0, (key, bus.handled[pattern])
