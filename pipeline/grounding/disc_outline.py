@@ -40,7 +40,11 @@ FACING_COS = float(np.cos(np.radians(45.0)))
 def is_flat(seen0: np.ndarray, point: np.ndarray, direction: np.ndarray, rel: float = FLAT_REL) -> bool:
     """Whether the body of revolution (its seen points, a point on its axis and the axis's unit direction) is seen
     along its axis for less than `rel` of its width."""
-    heights, radii = slice_radii(seen0, point, direction)
+    return _flat(*slice_radii(seen0, point, direction), rel)
+
+
+def _flat(heights: np.ndarray, radii: np.ndarray, rel: float) -> bool:
+    """Whether slices at `heights` along an axis with `radii` span less than `rel` of their width along it."""
     return len(radii) > 0 and np.ptp(heights) < rel * 2.0 * radii.max()
 
 
@@ -68,9 +72,9 @@ def tipped_disc(
     (`scene0`: the capture's other points, `up`: the table's normal); None where it is not flat, the outline is cut,
     or nothing level is seen beneath it."""
     point, direction = axis[0], axis[1] / np.linalg.norm(axis[1])
-    if not is_flat(seen0, point, direction):
-        return None
     heights, radii = slice_radii(seen0, point, direction)
+    if not _flat(heights, radii, FLAT_REL):
+        return None
     middle = point + 0.5 * (heights.min() + heights.max()) * direction
     tilts = _disc_tilts(mask1, K, middle, direction, 2.0 * float(radii.max()))
     if not tilts:

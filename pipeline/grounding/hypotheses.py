@@ -300,7 +300,7 @@ def _distinct(rotations: np.ndarray, min_deg: float, count: int) -> list[int]:
     return taken
 
 
-END_FOR_END_SPIN_DEG = 30.0  # the end-for-end twins spun about the body's axis in these steps
+END_FOR_END_SPIN_DEG = 30.0  # a body of revolution's twins spun about its axis in these steps (end_for_end, spun)
 
 
 def end_for_end(motion: Similarity, shape: SeenSymmetry, points0: np.ndarray, points1: np.ndarray) -> list[Similarity]:
