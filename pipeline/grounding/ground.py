@@ -18,7 +18,14 @@ from pipeline.contact.symmetry import revolved
 from pipeline.grounding.articulation import HingeNotFound, best_turn, find_hinge
 from pipeline.grounding.box_outline import face_lean_deg, turned_to_outline
 from pipeline.grounding.disc_outline import is_plate, tipped_disc
-from pipeline.grounding.handle import HandledBody, ends_by_print, handle_hypotheses, handled_body, turn_by_handle
+from pipeline.grounding.handle import (
+    HandledBody,
+    ends_by_print,
+    handle_hypotheses,
+    handled_body,
+    hidden_handle_turned,
+    turn_by_handle,
+)
 from pipeline.grounding.handle_outline import hidden_handle_spun, spun_to_outline
 from pipeline.grounding.hypotheses import (
     axis_hypotheses,
@@ -147,7 +154,7 @@ def _ground(
     if shape.kind != "none" and symmetry.kind == "none" and not hinted:  # a print: does it tell the shape's twins?
         sim, symmetry, turns_margin = read_turns(sim, shape, view0, view1, K, fine)
     if symmetry.axis is not None and not hinted:  # its turn about its axis unread: a handle the capture hid tells it
-        behind = _hidden_handle(sim, shape, seen0[0], up, inp, pp)
+        behind = _hidden_handle(sim, shape, seen0[0], seen1[0], up, inp, pp)
         if behind is not None:
             sim, symmetry = behind, SeenSymmetry("none", shape.centre)
 
@@ -433,18 +440,25 @@ def _up_direction(
 
 
 def _hidden_handle(
-    motion: Similarity, shape: SeenSymmetry, seen0: np.ndarray, up: np.ndarray, inp: GroundingInput, pp: Prepared
+    motion: Similarity,
+    shape: SeenSymmetry,
+    seen0: np.ndarray,
+    seen1: np.ndarray,
+    up: np.ndarray,
+    inp: GroundingInput,
+    pp: Prepared,
 ) -> Similarity | None:
-    """`motion` spun to where the goal outline shows a handle that a body of revolution standing in the capture
-    (`seen0`: its points above the support) hid behind it (handle_outline.hidden_handle_spun), or None; for a goal
+    """`motion` spun to where the goal outline (handle_outline.hidden_handle_spun), or else the goal's points facing
+    the camera (`seen1`: above the support; handle.hidden_handle_turned), show a handle that a body of revolution
+    standing in the capture (`seen0`: its points above the support) hid behind it, or None; for a goal
     left standing only (a tipped body's outline, its goal depth off, fits a fin anywhere: a raycast plate)."""
     if shape.axis is None or not _along_vertical(shape.axis, up) or tilt_deg(motion.R, up) > UPRIGHT_DEG:
         return None
     outline = goal_outline(inp.mask1, pp.depth1, inp.intrinsics)
-    if outline is None:
-        return None
     a = up / np.linalg.norm(up)
-    return hidden_handle_spun(motion, shape.centre, a, revolved(seen0, shape.centre, a), outline)
+    body = revolved(seen0, shape.centre, a)
+    spun = None if outline is None else hidden_handle_spun(motion, shape.centre, a, body, outline)
+    return spun if spun is not None else hidden_handle_turned(motion, shape.centre, a, seen0, seen1)
 
 
 def _along_vertical(axis: np.ndarray, up: np.ndarray) -> bool:

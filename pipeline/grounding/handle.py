@@ -21,7 +21,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drivers.types import CameraIntrinsics
-from pipeline.contact.symmetry import revolved
+from pipeline.contact.symmetry import basis_across, revolved
 from pipeline.grounding.compare import spins_about, tied_run
 from pipeline.grounding.seen_symmetry import handle_azimuth, handle_points, standing_axis, vertical_axis_centre
 from pipeline.grounding.seen_turns import read_turns
@@ -38,6 +38,9 @@ BODY_POINTS = 300  # of the body's seen points, swept round its axis to draw its
 OUTLINE_GROW_PX = 3  # the swept points' gaps closed, and a mask's outline a few pixels off
 BETTER_BY = 0.2  # of the handle's points: a turn must explain this share more of them than the motion's own
 HANDLE_TOLS = 2.0  # a thin handle's goal depth bleeds toward what lies behind it: it is in front only this far
+HIDDEN_REACH_REL = 0.4  # a handle reaches this share of the body's radius out of it (raycast mugs' 0.4-1.0)
+FACING_COS = 0.5  # the goal's points within 60 deg of the camera's side of the axis
+HANDLE_BAND = 0.25  # a handle holds on to the body within the middle half of its height (a mug's: about 0.2-0.8)
 TIED = 0.05  # turns within this share of the best explain the goal as well: the handle hides behind the body
 
 
@@ -58,6 +61,40 @@ def handle_hypotheses(
         return []
     R = Rotation.from_rotvec((h1 - h0) * a).as_matrix()
     return [Similarity(1.0, R, c1 - R @ c0)]
+
+
+def hidden_handle_turned(
+    motion: Similarity, centre: np.ndarray, up: np.ndarray, body: np.ndarray, seen1: np.ndarray
+) -> Similarity | None:
+    """`motion` spun about the vertical axis (`centre`, unit `up`: camera frame) of a body of revolution standing in
+    the capture (`body`: its seen points), which hid its handle behind it, so that the side it hid lands where the
+    goal's points (`seen1`: above the support) show a handle; None where they show none. A handle turned toward the
+    goal camera reaches out of the body in the goal's depth, not out of its outline
+    (handle_outline.hidden_handle_spun): raycast mugs so turned came out 80-180 deg off.
+    The goal's points are read about the axis where the motion puts it, against the capture's radius and height, and
+    only on the camera's side: a model's depth bleeds the far and side edges back, out of the body's reach, and a
+    nearer object's depth in front of the body at that object's own height, not between the body's ends."""
+    away = centre - (centre @ up) * up  # from the camera across the axis: the side the capture hid
+    if np.linalg.norm(away) < 1e-6:
+        return None
+    e1, e2 = basis_across(up)
+    radius = float(np.percentile(np.hypot((body - centre) @ e1, (body - centre) @ e2), 90))
+    heights = (body - centre) @ up
+    lo, hi = float(heights.min()), float(heights.max())
+    c1 = motion.apply(centre[None])[0]
+    toward = -(c1 - (c1 @ up) * up) / np.linalg.norm(c1 - (c1 @ up) * up)  # from the goal axis to the camera's side
+    off = seen1 - c1
+    azimuth, reach = np.arctan2(off @ e2, off @ e1), np.hypot(off @ e1, off @ e2)
+    handle = (reach > (1.0 + HIDDEN_REACH_REL) * radius) & (off @ toward > FACING_COS * reach)
+    if handle.sum() < MIN_HANDLE_POINTS:
+        return None
+    height = float(np.median(off[handle] @ up))
+    if not lo + HANDLE_BAND * (hi - lo) <= height <= hi - HANDLE_BAND * (hi - lo):
+        return None
+    found = np.arctan2(np.sin(azimuth[handle]).sum(), np.cos(azimuth[handle]).sum())
+    hidden = motion.R @ away  # where the motion turns the side the capture hid
+    turn = found - np.arctan2(hidden @ e2, hidden @ e1)
+    return motion.turned_first(Rotation.from_rotvec(turn * up).as_matrix(), centre)
 
 
 @dataclass(frozen=True)

@@ -294,3 +294,30 @@ def test_a_handle_the_capture_hid_is_found_where_the_goal_outline_shows_it(off_d
 
 def _spin_z(deg: float) -> np.ndarray:
     return Rotation.from_euler("z", deg, degrees=True).as_matrix()
+
+
+@pytest.mark.parametrize("off_deg", [150.0, -80.0])
+def test_a_handle_the_capture_hid_is_read_off_the_goal_points_facing_the_camera(off_deg):
+    """The capture saw the mug's wall only (its handle straight behind); the goal turned the handle toward the camera,
+    where it reaches out of the body in the goal's points but not out of its outline. A motion spun off_deg from the
+    truth is spun back to it; the goal's back edge, bled far behind the body (a model's depth), reaches out further
+    than the handle and is not taken for it; a goal that shows no handle spins nothing."""
+    from pipeline.grounding.handle import hidden_handle_turned
+
+    ray = BASE - (BASE @ UP) * UP
+    away = ray / np.linalg.norm(ray)
+    yaw0 = max(np.arange(0.0, 360.0, 0.5), key=lambda y: (ON_TABLE @ _spin_z(y) @ [1.0, 0.0, 0.0]) @ away)
+    truth = Similarity(1.0, _spin(150.0), BASE - _spin(150.0) @ BASE)  # the handle 30 deg off straight at the camera
+    points, normals = _mug(np.random.default_rng(9), yaw0, BASE, bar_height=0.05)
+    body = points[np.abs(normals @ UP) < 0.5]  # what the capture saw: the handle behind the body is not among it
+    goal, goal_normals = _mug(np.random.default_rng(10), yaw0 + 150.0, BASE, bar_height=0.05)
+    a = np.radians(np.linspace(-40.0, 40.0, 300))  # the back edge bled 5 cm behind the body, straight behind it
+    bled = BASE + np.outer(0.09 * np.cos(a), away) + np.outer(0.09 * np.sin(a), np.cross(UP, away)) + 0.05 * UP
+    wrong = truth.turned_first(_spin(off_deg), BASE)
+    found = hidden_handle_turned(wrong, BASE, UP, body, np.vstack([goal, bled]))
+    assert found is not None and rotation_deg(found.R.T @ truth.R) < 8.0, rotation_deg(found.R.T @ truth.R)
+    wall = np.abs(goal_normals @ UP) < 0.5  # the bar faces up: without it the goal shows no handle
+    assert hidden_handle_turned(wrong, BASE, UP, body, np.vstack([goal[wall], bled])) is None
+    # a nearer object's depth bled onto the body's foot, in front of it: no handle (the bar's own height is one)
+    foot = goal[~wall] - (goal[~wall] - BASE) @ UP[:, None] * UP + 0.005 * UP
+    assert hidden_handle_turned(wrong, BASE, UP, body, np.vstack([goal[wall], foot])) is None
