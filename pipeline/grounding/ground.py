@@ -456,9 +456,11 @@ def _hidden_handle(
         return None
     outline = goal_outline(inp.mask1, pp.depth1, inp.intrinsics)
     a = up / np.linalg.norm(up)
-    body = revolved(seen0, shape.centre, a)
-    spun = None if outline is None else hidden_handle_spun(motion, shape.centre, a, body, outline)
-    return spun if spun is not None else hidden_handle_turned(motion, shape.centre, a, seen0, seen1)
+    if outline is not None:
+        found = hidden_handle_spun(motion, shape.centre, a, revolved(seen0, shape.centre, a), outline)
+        if found is not None:
+            return found
+    return hidden_handle_turned(motion, shape.centre, a, seen0, seen1)
 
 
 def _along_vertical(axis: np.ndarray, up: np.ndarray) -> bool:

@@ -82,7 +82,8 @@ def hidden_handle_turned(
     heights = (body - centre) @ up
     lo, hi = float(heights.min()), float(heights.max())
     c1 = motion.apply(centre[None])[0]
-    toward = -(c1 - (c1 @ up) * up) / np.linalg.norm(c1 - (c1 @ up) * up)  # from the goal axis to the camera's side
+    across = c1 - (c1 @ up) * up  # from the camera across the goal axis, as `away` about the capture's
+    toward = -across / np.linalg.norm(across)  # from the goal axis to the camera's side
     off = seen1 - c1
     azimuth, reach = np.arctan2(off @ e2, off @ e1), np.hypot(off @ e1, off @ e2)
     handle = (reach > (1.0 + HIDDEN_REACH_REL) * radius) & (off @ toward > FACING_COS * reach)
