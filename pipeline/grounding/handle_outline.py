@@ -55,7 +55,7 @@ def _dip_bottom(motion: Similarity, handled: HandledBody, cost: np.ndarray, alon
     """`motion` spun to the bottom of the dip in the outline misfit (`cost`, `along`: one per spin, the motion's own
     first) that its own spin lies in, where that bottom is within DIP_STEPS and a single clear one: the handle's reach
     in the outline places the spin finer than a model's depth on a thin handle does (raycast mugs whose handle both
-    views show had kept 5-15 deg from it; over 788 raycast pairs the mugs' median error 8.8 -> 7.2 deg, 6 more right
+    views show had kept 5-15 deg from it; over 788 raycast pairs the mugs' median error 8.8 -> 7.2 deg, 5 more right
     and 3 fewer: the dip itself can lie a step off). A flat bottom (a handle hidden behind the body: spins within
     TIED_PX2 over more than two steps) tells nothing; nor does a hull off the outline."""
     n, k = len(cost), 0
