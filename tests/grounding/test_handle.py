@@ -188,7 +188,7 @@ def test_the_middle_of_tied_turns_is_found_round_the_circle():
         # image shows none: the goal outline spins it back (handle_outline.py)
         (35, "turn"),
         # a mug slid and turned on the table came out 11 deg off, where its goal depth's handle left it: the goal
-        # outline's dip was 2 deg off the truth, too shallow to fit clearly better; its bottom is taken
+        # outline's dip, 0.2 px^2 deep, too shallow to fit clearly better, has its bottom 4-5 deg from the truth
         (75, "slide"),
     ],
 )
@@ -233,7 +233,7 @@ def test_the_goal_outline_spins_the_handle_back(off_deg, grow_px):
 @pytest.mark.parametrize("off_deg", [3.5, -3.0])
 def test_a_spin_a_little_off_is_brought_to_the_bottom_of_the_outline_dip(off_deg):
     """A motion whose handle is a little off where the goal's outline shows it, too little for the outline to fit
-    clearly better (handle_outline.BETTER_BY_PX2: this clean outline fits 0.1-0.2 px^2 better), is spun to the
+    clearly better (handle_outline.BETTER_BY_PX2: this clean outline fits about 0.1-0.2 px^2 better), is spun to the
     bottom of the outline's dip, within a degree of the truth."""
     from pipeline.grounding.handle_outline import spun_to_outline
     from pipeline.grounding.outline_fit import goal_outline
