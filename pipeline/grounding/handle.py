@@ -75,14 +75,14 @@ def hidden_handle_turned(
     only on the camera's side: a model's depth bleeds the far and side edges back, out of the body's reach, and a
     nearer object's depth in front of the body at that object's own height, not between the body's ends."""
     away = centre - (centre @ up) * up  # from the camera across the axis: the side the capture hid
-    if np.linalg.norm(away) < 1e-6:
+    c1 = motion.apply(centre[None])[0]
+    across = c1 - (c1 @ up) * up  # from the camera across the goal axis, as `away` about the capture's
+    if min(np.linalg.norm(away), np.linalg.norm(across)) < 1e-6:  # an axis through the camera: no side is hidden
         return None
     e1, e2 = basis_across(up)
     radius = float(np.percentile(np.hypot((body - centre) @ e1, (body - centre) @ e2), 90))
     heights = (body - centre) @ up
     lo, hi = float(heights.min()), float(heights.max())
-    c1 = motion.apply(centre[None])[0]
-    across = c1 - (c1 @ up) * up  # from the camera across the goal axis, as `away` about the capture's
     toward = -across / np.linalg.norm(across)  # from the goal axis to the camera's side
     off = seen1 - c1
     azimuth, reach = np.arctan2(off @ e2, off @ e1), np.hypot(off @ e1, off @ e2)

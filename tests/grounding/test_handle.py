@@ -148,20 +148,15 @@ def test_a_body_laid_on_its_side_is_spun_about_its_own_axis(off_deg):
 def test_a_goal_that_shows_no_handle_hides_it_behind_the_body():
     """The goal shows the mug with its handle (half way up) straight behind it, hidden: a motion that leaves the
     handle beside the body (where the goal shows the table) is spun to hide it, to within the turns that hide it."""
-    ray = BASE - (BASE @ UP) * UP
-    away = ray / np.linalg.norm(ray)  # on the table, straight away from the camera
-
-    def handle_direction(yaw_deg: float) -> np.ndarray:
-        return ON_TABLE @ Rotation.from_euler("z", yaw_deg, degrees=True).as_matrix() @ [1.0, 0.0, 0.0]
-
-    hidden_yaw = max(np.arange(0.0, 360.0, 1.0), key=lambda y: handle_direction(y) @ away)
+    away = _away()
+    hidden_yaw = _hiding_yaw_deg(1.0)
     seen0 = _mug(np.random.default_rng(7), 20.0, BASE, bar_height=0.05)
     beside = Similarity(1.0, _spin(hidden_yaw - 20.0 + 90.0), np.zeros(3))
     beside = Similarity(1.0, beside.R, BASE - beside.R @ BASE)
     view1 = _goal_view(hidden_yaw, bar_height=0.05)
     assert view1.mask.sum() == _goal_view(hidden_yaw, bar_height=0.0).mask.sum()  # the handle does not show
     found = turn_by_handle(beside, handled_body(seen0, UP), view1, K, 0.004)
-    handle = found.R @ handle_direction(20.0)
+    handle = found.R @ _handle_direction(20.0)
     assert np.degrees(np.arccos(np.clip(handle @ away, -1, 1))) < 45.0
 
 
@@ -216,12 +211,8 @@ def test_the_goal_outline_spins_the_handle_back(off_deg, grow_px):
     a few pixels (where a handle laid along the grown mask lands on it), is spun about the body's axis to within 3 deg;
     the body's centre stays where the motion put it, and the right spin stays within a degree."""
     from pipeline.grounding.handle_outline import spun_to_outline
-    from pipeline.grounding.outline_fit import goal_outline
 
-    handled = handled_body(_mug(np.random.default_rng(6), 20.0, BASE), UP)
-    truth = Similarity(1.0, _spin(70.0), BASE - _spin(70.0) @ BASE)
-    view1 = _goal_view(20.0 + 70.0)
-    outline = goal_outline(_grown(view1.mask, grow_px), view1.depth, K)
+    handled, truth, outline = _turned_with_outline(grow_px)
     whole = handled.whole()
     wrong = truth.turned_first(_spin(off_deg), handled.centre)
     found = spun_to_outline(wrong, handled, whole, outline)
@@ -236,12 +227,8 @@ def test_a_spin_a_little_off_is_brought_to_the_bottom_of_the_outline_dip(off_deg
     clearly better (handle_outline.BETTER_BY_PX2: this clean outline fits about 0.1-0.2 px^2 better), is spun to the
     bottom of the outline's dip, within a degree of the truth."""
     from pipeline.grounding.handle_outline import spun_to_outline
-    from pipeline.grounding.outline_fit import goal_outline
 
-    handled = handled_body(_mug(np.random.default_rng(6), 20.0, BASE), UP)
-    truth = Similarity(1.0, _spin(70.0), BASE - _spin(70.0) @ BASE)
-    view1 = _goal_view(20.0 + 70.0)
-    outline = goal_outline(_grown(view1.mask, 2), view1.depth, K)
+    handled, truth, outline = _turned_with_outline(2)
     off = truth.turned_first(_spin(off_deg), handled.centre)
     assert rotation_deg(off.R.T @ truth.R) > 2.9
     found = spun_to_outline(off, handled, handled.whole(), outline)
@@ -256,13 +243,8 @@ def test_an_outline_that_shows_no_handle_keeps_a_spin_that_hides_it():
     from pipeline.grounding.handle_outline import spun_to_outline
     from pipeline.grounding.outline_fit import goal_outline
 
-    ray = BASE - (BASE @ UP) * UP
-    away = ray / np.linalg.norm(ray)
-
-    def handle_direction(yaw_deg: float) -> np.ndarray:
-        return ON_TABLE @ Rotation.from_euler("z", yaw_deg, degrees=True).as_matrix() @ [1.0, 0.0, 0.0]
-
-    hidden_yaw = max(np.arange(0.0, 360.0, 1.0), key=lambda y: handle_direction(y) @ away)
+    away = _away()
+    hidden_yaw = _hiding_yaw_deg(1.0)
     handled = handled_body(_mug(np.random.default_rng(7), 20.0, BASE, bar_height=0.05), UP)
     view1 = _goal_view(hidden_yaw, bar_height=0.05)
     outline = goal_outline(_grown(view1.mask, 2), view1.depth, K)
@@ -272,7 +254,7 @@ def test_an_outline_that_shows_no_handle_keeps_a_spin_that_hides_it():
         return Similarity(1.0, _spin(yaw_deg - 20.0), BASE - _spin(yaw_deg - 20.0) @ BASE)
 
     def handle_from_away_deg(motion: Similarity) -> float:  # signed about the vertical
-        handle = motion.R @ handle_direction(20.0)
+        handle = motion.R @ _handle_direction(20.0)
         return float(np.degrees(np.arctan2(np.cross(away, handle) @ UP, handle @ away)))
 
     near = standing(hidden_yaw + 15.0)
@@ -298,9 +280,7 @@ def test_a_handle_the_capture_hid_is_found_where_the_goal_outline_shows_it(off_d
     from pipeline.grounding.handle_outline import hidden_handle_spun
     from pipeline.grounding.outline_fit import goal_outline
 
-    ray = BASE - (BASE @ UP) * UP
-    away = ray / np.linalg.norm(ray)
-    yaw0 = max(np.arange(0.0, 360.0, 0.5), key=lambda y: (ON_TABLE @ _spin_z(y) @ [1.0, 0.0, 0.0]) @ away)
+    yaw0 = _hiding_yaw_deg(0.5)
     points, normals = _mug(np.random.default_rng(8), yaw0, BASE, bar_height=0.05)
     wall = points[np.abs(normals @ UP) < 0.5]  # what the capture saw: the handle behind the body is not among it
     body = revolved(wall, BASE, UP)
@@ -317,6 +297,33 @@ def _spin_z(deg: float) -> np.ndarray:
     return Rotation.from_euler("z", deg, degrees=True).as_matrix()
 
 
+def _away() -> np.ndarray:
+    """On the table, straight away from the camera through BASE (unit, camera frame)."""
+    ray = BASE - (BASE @ UP) * UP
+    return ray / np.linalg.norm(ray)
+
+
+def _hiding_yaw_deg(step_deg: float) -> float:
+    """The mug's yaw, on a step_deg grid, that puts its handle (_mug's bar) straight behind the body."""
+    return max(np.arange(0.0, 360.0, step_deg), key=lambda y: _handle_direction(y) @ _away())
+
+
+def _handle_direction(yaw_deg: float) -> np.ndarray:
+    """Where the handle (_mug's bar) of the mug turned by yaw_deg points (unit, camera frame)."""
+    return ON_TABLE @ _spin_z(yaw_deg) @ [1.0, 0.0, 0.0]
+
+
+def _turned_with_outline(grow_px: int):
+    """(the mug seen standing at BASE turned 20 deg, the motion turning it 70 deg where it stands, the goal outline
+    of its mask grown by grow_px)."""
+    from pipeline.grounding.outline_fit import goal_outline
+
+    handled = handled_body(_mug(np.random.default_rng(6), 20.0, BASE), UP)
+    truth = Similarity(1.0, _spin(70.0), BASE - _spin(70.0) @ BASE)
+    view1 = _goal_view(20.0 + 70.0)
+    return handled, truth, goal_outline(_grown(view1.mask, grow_px), view1.depth, K)
+
+
 @pytest.mark.parametrize("off_deg", [150.0, -80.0])
 def test_a_handle_the_capture_hid_is_read_off_the_goal_points_facing_the_camera(off_deg):
     """The capture saw the mug's wall only (its handle straight behind); the goal turned the handle toward the camera,
@@ -325,9 +332,7 @@ def test_a_handle_the_capture_hid_is_read_off_the_goal_points_facing_the_camera(
     than the handle and is not taken for it; a goal that shows no handle spins nothing."""
     from pipeline.grounding.handle import hidden_handle_turned
 
-    ray = BASE - (BASE @ UP) * UP
-    away = ray / np.linalg.norm(ray)
-    yaw0 = max(np.arange(0.0, 360.0, 0.5), key=lambda y: (ON_TABLE @ _spin_z(y) @ [1.0, 0.0, 0.0]) @ away)
+    away, yaw0 = _away(), _hiding_yaw_deg(0.5)
     truth = Similarity(1.0, _spin(150.0), BASE - _spin(150.0) @ BASE)  # the handle 30 deg off straight at the camera
     points, normals = _mug(np.random.default_rng(9), yaw0, BASE, bar_height=0.05)
     body = points[np.abs(normals @ UP) < 0.5]  # what the capture saw: the handle behind the body is not among it
